@@ -1,0 +1,56 @@
+"""The ``arstream`` command line: a thin layer that parses and calls the library.
+
+Each sub-command lives in ``arstream/commands/<name>.py``. Errors are one line
+on stderr and an exit code (2: bad input or usage, 1: processing failure,
+130: interrupted); ``--verbose`` adds the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from arstream import __version__
+from arstream.commands import discover
+from arstream.errors import ArstreamError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="arstream",
+        description=(
+            "Augmented reality on broadcast soccer video: find the pitch markings, "
+            "solve the camera of every frame, and draw graphics glued to the pitch."
+        ),
+        epilog="Run 'arstream COMMAND --help' for the options of a command.",
+    )
+    parser.add_argument("--version", action="version", version=f"arstream {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="show tracebacks and debug output")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for mod in discover():
+        mod.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("arstream: interrupted", file=sys.stderr)
+        return 130
+    except (ArstreamError, ValueError, OSError) as exc:
+        if args.verbose:
+            traceback.print_exc()
+        code = getattr(exc, "exit_code", 2 if isinstance(exc, (ValueError, OSError)) else 1)
+        print(f"arstream: error: {exc}", file=sys.stderr)
+        return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

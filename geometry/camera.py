@@ -1,0 +1,432 @@
+"""Pinhole cameras: K, R, t <-> P, plane homographies, the IAC, and the
+pan/tilt/roll/focal parametrisation of a broadcast camera on a tripod.
+
+Convention (OpenCV): a world point ``X`` (3,) projects to ``x ~ K (R X + t)``
+with ``R = R_cam_from_world``; the camera looks down +z, image x right, y
+down, pixel centres at integer coordinates.
+``K = [[f, s, cx], [0, a f, cy], [0, 0, 1]]``. The world is the pitch frame
+(metres, origin at the centre spot, X along the touchlines, Y away from the
+main camera, Z up; the pitch is Z = 0), so ``H_img_from_pitch = K [r1 r2 t]``.
+
+Optional radial distortion ``dist = (k1, k2, ...)`` follows OpenCV's model on
+normalised coordinates: ``x_d = x_u (1 + k1 r^2 + k2 r^4 + ...)``.
+
+Round trips of the core transforms:
+
+>>> K = intrinsic_matrix(1200.0, 640.0, 360.0)
+>>> R = rotation_from_ptr(0.2, 0.3, 0.01)
+>>> t = np.array([1.0, 2.0, 60.0])
+>>> K2, R2, t2 = KRt_from_P(P_from_KRt(K, R, t))
+>>> bool(np.allclose(K2, K) and np.allclose(R2, R) and np.allclose(t2, t))
+True
+>>> bool(np.allclose(rotation_from_ptr(*ptr_from_rotation(R)), R))
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from geometry.conics import normalize_conic
+
+__all__ = [
+    "Camera",
+    "PTZ",
+    "intrinsic_matrix",
+    "P_from_KRt",
+    "KRt_from_P",
+    "camera_from_homography",
+    "iac",
+    "K_from_iac",
+    "rotation_from_ptr",
+    "ptr_from_rotation",
+    "camera_from_ptz",
+    "ptz_from_camera",
+    "distort_normalized",
+    "undistort_normalized",
+]
+
+# Camera axes in the world at pan = tilt = roll = 0: image x along +X, image y
+# along -Z (down), optical axis along +Y (toward the far touchline).
+_R_BASE = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def intrinsic_matrix(f: float, cx: float, cy: float, aspect: float = 1.0, skew: float = 0.0) -> np.ndarray:
+    """Calibration matrix ``[[f, skew, cx], [0, aspect f, cy], [0, 0, 1]]`` (3, 3) float64, pixels."""
+    if not (np.isfinite(f) and f > 0):
+        raise ValueError(f"focal length must be positive and finite, got {f}")
+    if not (np.isfinite(aspect) and aspect > 0):
+        raise ValueError(f"aspect ratio must be positive, got {aspect}")
+    return np.array([[f, skew, cx], [0.0, aspect * f, cy], [0.0, 0.0, 1.0]], dtype=np.float64)
+
+
+def _check_K(K) -> np.ndarray:
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3):
+        raise ValueError(f"K must be 3x3, got {K.shape}")
+    if not np.all(np.isfinite(K)):
+        raise ValueError("K has non-finite entries")
+    if abs(K[1, 0]) > 1e-9 * abs(K[1, 1]) or abs(K[2, 0]) > 1e-12 or abs(K[2, 1]) > 1e-12 or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ValueError("K must be upper triangular with positive focal lengths")
+    if abs(K[2, 2] - 1.0) > 1e-9:
+        raise ValueError("K must have K[2, 2] == 1")
+    return K
+
+
+def _check_R(R) -> np.ndarray:
+    R = np.asarray(R, dtype=np.float64)
+    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+        raise ValueError(f"R must be a finite 3x3 matrix, got shape {R.shape}")
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise ValueError("R must be a rotation (orthonormal, det +1)")
+    return R
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera ``x ~ K (R X + t)`` (OpenCV convention), world = pitch frame.
+
+    Attributes
+    ----------
+    K : (3, 3) float64, intrinsics in pixels
+    R : (3, 3) float64, ``R_cam_from_world``
+    t : (3,) float64, ``t_cam_from_world`` (metres): the world origin in camera coordinates
+    dist : tuple of float, radial coefficients ``(k1, k2, ...)``; empty for none
+    """
+
+    K: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    dist: tuple = field(default=())
+
+    def __post_init__(self) -> None:
+        K = _check_K(self.K)
+        R = _check_R(self.R)
+        t = np.asarray(self.t, dtype=np.float64).reshape(-1)
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise ValueError(f"t must be a finite (3,) vector, got {t.shape}")
+        dist = tuple(float(k) for k in self.dist)
+        if not all(np.isfinite(dist)):
+            raise ValueError("distortion coefficients must be finite")
+        object.__setattr__(self, "K", K.copy())
+        object.__setattr__(self, "R", R.copy())
+        object.__setattr__(self, "t", t.copy())
+        object.__setattr__(self, "dist", dist)
+
+    # --- derived quantities -------------------------------------------------
+    @property
+    def P(self) -> np.ndarray:
+        """(3, 4) projection matrix ``K [R | t]`` (no distortion)."""
+        return P_from_KRt(self.K, self.R, self.t)
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) camera centre in the world frame, ``-R^T t`` (metres)."""
+        return -self.R.T @ self.t
+
+    @property
+    def focal(self) -> float:
+        """Horizontal focal length ``K[0, 0]`` in pixels."""
+        return float(self.K[0, 0])
+
+    @property
+    def principal_point(self) -> np.ndarray:
+        """(2,) principal point ``(cx, cy)`` in pixels."""
+        return self.K[:2, 2].copy()
+
+    @property
+    def H_img_from_pitch(self) -> np.ndarray:
+        """(3, 3) ``K [r1 r2 t]``: pitch (X, Y, 1) -> pixels (ignores distortion)."""
+        return self.K @ np.column_stack([self.R[:, 0], self.R[:, 1], self.t])
+
+    @property
+    def horizon(self) -> np.ndarray:
+        """(3,) vanishing line of the pitch plane in the image, ``K^-T R e3``, normalised
+        (a^2 + b^2 = 1, sign such that the pitch's image has positive values)."""
+        # for a pitch point x ~ K (R X + t) with depth w > 0: (K^-T R e3) . x = -C_z w,
+        # so the minus sign puts the pitch (seen from above) on the positive side
+        l = -np.linalg.solve(self.K.T, self.R[:, 2])
+        return l / np.hypot(l[0], l[1])
+
+    # --- projection -----------------------------------------------------------
+    def to_camera(self, X) -> np.ndarray:
+        """World points (N, 3) -> camera coordinates (N, 3), metres."""
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape[1] != 3:
+            raise ValueError(f"X must have shape (N, 3), got {X.shape}")
+        return X @ self.R.T + self.t
+
+    def project(self, X) -> np.ndarray:
+        """Project world points (N, 3) to pixels (N, 2), applying ``dist``.
+
+        Points behind the camera (z <= 0) come out as NaN; use :meth:`in_front`.
+        """
+        Xc = self.to_camera(X)
+        z = Xc[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = Xc[:, :2] / np.where(z > 0, z, np.nan)[:, None]
+        if self.dist:
+            xn = distort_normalized(xn, self.dist)
+        return xn @ self.K[:2, :2].T + self.K[:2, 2]
+
+    def project_pitch(self, XY) -> np.ndarray:
+        """Project pitch points (N, 2) (Z = 0, metres) to pixels (N, 2)."""
+        XY = np.asarray(XY, dtype=np.float64)
+        if XY.ndim != 2 or XY.shape[1] != 2:
+            raise ValueError(f"XY must have shape (N, 2), got {XY.shape}")
+        return self.project(np.column_stack([XY, np.zeros(len(XY))]))
+
+    def in_front(self, X) -> np.ndarray:
+        """(N,) bool: world points (N, 3) with positive depth."""
+        return self.to_camera(X)[:, 2] > 0
+
+    def backproject_to_pitch(self, pts) -> np.ndarray:
+        """Intersect the rays of pixels (N, 2) with the pitch plane Z = 0.
+
+        Distortion is removed first. Returns (N, 2) pitch coordinates (metres);
+        rays that miss the pitch in front of the camera (at or above the
+        horizon) give NaN rows.
+        """
+        p = np.asarray(pts, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise ValueError(f"pts must have shape (N, 2), got {p.shape}")
+        xn = (p - self.K[:2, 2]) @ np.linalg.inv(self.K[:2, :2]).T
+        if self.dist:
+            xn = undistort_normalized(xn, self.dist)
+        rays_cam = np.column_stack([xn, np.ones(len(xn))])
+        rays_w = rays_cam @ self.R  # R^T d, as rows
+        c = self.center
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = -c[2] / rays_w[:, 2]
+        out = c[:2] + s[:, None] * rays_w[:, :2]
+        out[~(s > 0)] = np.nan
+        return out
+
+    # --- serialisation ----------------------------------------------------------
+    def to_dict(self) -> dict:
+        """JSON-ready dict with ``K``, ``R``, ``t``, ``dist`` and ``H`` (DESIGN.md section 5)."""
+        H = self.H_img_from_pitch
+        H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 else H / np.linalg.norm(H)
+        return {
+            "K": self.K.tolist(),
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "dist": list(self.dist),
+            "H": H.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Camera":
+        """Inverse of :meth:`to_dict` (``H`` is ignored; ``dist`` optional)."""
+        try:
+            return cls(K=np.array(d["K"], float), R=np.array(d["R"], float), t=np.array(d["t"], float), dist=tuple(d.get("dist") or ()))
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"camera record lacks K, R or t: {exc}") from None
+
+
+@dataclass(frozen=True)
+class PTZ:
+    """Pan, tilt, roll (radians) and focal length (pixels) of a camera on a tripod.
+
+    ``pan`` turns the optical axis from +Y toward +X about the world Z axis;
+    ``tilt`` > 0 looks down; ``roll`` turns the image about the optical axis
+    (image x toward image y). See :func:`rotation_from_ptr`.
+    """
+
+    pan: float
+    tilt: float
+    roll: float
+    f: float
+
+
+def P_from_KRt(K, R, t) -> np.ndarray:
+    """``P = K [R | t]``: (3, 3), (3, 3), (3,) -> (3, 4) float64."""
+    K = np.asarray(K, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64).reshape(3)
+    return K @ np.column_stack([R, t])
+
+
+def KRt_from_P(P) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Decompose a finite projection matrix (3, 4) into ``K`` (K[2,2] = 1, positive
+    diagonal), a rotation ``R`` and ``t`` (RQ decomposition)."""
+    P = np.asarray(P, dtype=np.float64)
+    if P.shape != (3, 4):
+        raise ValueError(f"P must be 3x4, got {P.shape}")
+    M = P[:, :3]
+    if abs(np.linalg.det(M)) < 1e-12 * np.linalg.norm(M) ** 3:
+        raise ValueError("P has a singular left 3x3 block (camera at infinity)")
+    K, R = scipy.linalg.rq(M)
+    S = np.diag(np.sign(np.diag(K)))
+    K, R = K @ S, S @ R
+    t = np.linalg.solve(K, P[:, 3])
+    if np.linalg.det(R) < 0:
+        R, t = -R, -t
+    scale = K[2, 2]
+    return K / scale, R, t / scale
+
+
+def iac(K) -> np.ndarray:
+    """Image of the absolute conic ``omega = K^-T K^-1`` (3, 3), normalised conic."""
+    Ki = np.linalg.inv(_check_K(K))
+    return normalize_conic(Ki.T @ Ki)
+
+
+def K_from_iac(omega) -> np.ndarray:
+    """Calibration matrix from the IAC (3, 3) by Cholesky: ``omega ~ K^-T K^-1``.
+
+    Raises ``ValueError`` if ``omega`` is not (a multiple of) a positive-definite matrix.
+    """
+    w = np.asarray(omega, dtype=np.float64)
+    if w.shape != (3, 3):
+        raise ValueError(f"omega must be 3x3, got {w.shape}")
+    w = 0.5 * (w + w.T)
+    if w[2, 2] < 0 or np.trace(w) < 0:
+        w = -w
+    try:
+        L = np.linalg.cholesky(w)  # w = L L^T, and w = K^-T K^-1 so K^-T = L up to scale
+    except np.linalg.LinAlgError:
+        raise ValueError("omega is not positive definite: not the image of the absolute conic") from None
+    K = np.linalg.inv(L.T)
+    return K / K[2, 2]
+
+
+def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> Camera:
+    """Decompose a pitch-to-image homography into ``K``, ``R``, ``t``.
+
+    Assumes zero skew, known aspect ratio and principal point; solves the focal
+    length from the two orthogonality constraints of ``r1``, ``r2`` on the IAC
+    (least squares in ``1/f^2``), then ``[r1 r2 t] = K^-1 H / lambda``.
+
+    Parameters
+    ----------
+    H_img_from_pitch : (3, 3) maps pitch (X, Y, 1) in metres to pixels
+    principal_point : (2,) pixels
+    aspect : float, ``fy / fx``
+
+    Returns
+    -------
+    Camera (pitch in front of the camera, camera above it).
+
+    Raises
+    ------
+    ValueError
+        Singular ``H``; no positive focal length (e.g. a fronto-parallel view,
+        where f is unobservable); or the camera would be below the pitch.
+    """
+    H = np.asarray(H_img_from_pitch, dtype=np.float64)
+    if H.shape != (3, 3) or not np.all(np.isfinite(H)):
+        raise ValueError("H_img_from_pitch must be a finite 3x3 matrix")
+    s = np.linalg.svd(H, compute_uv=False)
+    if s[-1] < 1e-10 * s[0]:
+        raise ValueError("homography is singular")
+    cx, cy = np.asarray(principal_point, dtype=np.float64)
+    T = np.array([[1.0, 0.0, -cx], [0.0, 1.0 / aspect, -cy / aspect], [0.0, 0.0, 1.0]])
+    G = T @ H
+    G = G / np.linalg.norm(G)
+    g1, g2 = G[:, 0], G[:, 1]
+    # omega = diag(w, w, 1), w = 1/f^2:  g1^T omega g2 = 0, g1^T omega g1 = g2^T omega g2
+    a1, b1 = g1[0] * g2[0] + g1[1] * g2[1], g1[2] * g2[2]
+    a2, b2 = g1[0] ** 2 + g1[1] ** 2 - g2[0] ** 2 - g2[1] ** 2, g1[2] ** 2 - g2[2] ** 2
+    den = a1 * a1 + a2 * a2
+    if den < 1e-300:
+        raise ValueError("focal length unobservable from this homography")
+    w = -(a1 * b1 + a2 * b2) / den
+    if not w > 0:
+        raise ValueError("no positive focal length fits this homography (fronto-parallel or inconsistent)")
+    f = 1.0 / np.sqrt(w)
+    K = intrinsic_matrix(f, cx, cy, aspect)
+    M = np.linalg.solve(K, H)
+    lam = 0.5 * (np.linalg.norm(M[:, 0]) + np.linalg.norm(M[:, 1]))
+    M = M / lam
+    if M[2, 2] < 0:
+        M = -M
+    r1, r2, t = M[:, 0], M[:, 1], M[:, 2]
+    Rm = np.column_stack([r1, r2, np.cross(r1, r2)])
+    U, _, Vt = np.linalg.svd(Rm)
+    Rm = U @ Vt
+    if np.linalg.det(Rm) < 0:
+        raise ValueError("homography is a mirror image: camera would be below the pitch")
+    cam = Camera(K=K, R=Rm, t=t)
+    if cam.center[2] <= 0:
+        raise ValueError("camera below the pitch: this homography does not see the pitch from above")
+    return cam
+
+
+def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:
+    """``R_cam_from_world`` (3, 3) for pan, tilt, roll (radians).
+
+    ``R = Rz(roll) Rx(tilt) R0 Rz(pan)`` where ``R0`` looks along +Y with image
+    y pointing down (-Z). The optical axis in the world is
+    ``(sin(pan) cos(tilt), cos(pan) cos(tilt), -sin(tilt))``.
+    """
+    cp, sp = np.cos(pan), np.sin(pan)
+    ct, st = np.cos(tilt), np.sin(tilt)
+    cr, sr = np.cos(roll), np.sin(roll)
+    Rz_pan = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
+    Rx_tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
+    Rz_roll = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
+    return Rz_roll @ Rx_tilt @ _R_BASE @ Rz_pan
+
+
+def ptr_from_rotation(R) -> tuple[float, float, float]:
+    """Inverse of :func:`rotation_from_ptr`: ``(pan, tilt, roll)`` radians, tilt in [-pi/2, pi/2]."""
+    R = _check_R(R)
+    r3 = R[2]
+    pan = float(np.arctan2(r3[0], r3[1]))
+    tilt = float(np.arctan2(-r3[2], np.hypot(r3[0], r3[1])))
+    cp, sp = np.cos(pan), np.sin(pan)
+    ct, st = np.cos(tilt), np.sin(tilt)
+    Rz_pan = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
+    Rx_tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
+    M = R @ (Rx_tilt @ _R_BASE @ Rz_pan).T
+    roll = float(np.arctan2(M[1, 0], M[0, 0]))
+    return pan, tilt, roll
+
+
+def camera_from_ptz(center, ptz: PTZ, principal_point, *, dist: tuple = ()) -> Camera:
+    """Camera with centre ``center`` (3,) metres in the pitch frame, orientation and
+    focal length from ``ptz``, square pixels and the given principal point (2,)."""
+    c = np.asarray(center, dtype=np.float64)
+    if c.shape != (3,):
+        raise ValueError(f"center must be (3,), got {c.shape}")
+    R = rotation_from_ptr(ptz.pan, ptz.tilt, ptz.roll)
+    K = intrinsic_matrix(ptz.f, principal_point[0], principal_point[1])
+    return Camera(K=K, R=R, t=-R @ c, dist=dist)
+
+
+def ptz_from_camera(cam: Camera) -> tuple[np.ndarray, PTZ]:
+    """``(center (3,), PTZ)`` of a camera (inverse of :func:`camera_from_ptz`)."""
+    pan, tilt, roll = ptr_from_rotation(cam.R)
+    return cam.center, PTZ(pan=pan, tilt=tilt, roll=roll, f=cam.focal)
+
+
+def distort_normalized(xn, dist) -> np.ndarray:
+    """Apply radial distortion to normalised coordinates (N, 2): ``x (1 + k1 r^2 + k2 r^4 + ...)``."""
+    xn = np.asarray(xn, dtype=np.float64)
+    r2 = (xn * xn).sum(axis=1)
+    factor = np.ones_like(r2)
+    rp = np.ones_like(r2)
+    for k in dist:
+        rp = rp * r2
+        factor = factor + k * rp
+    return xn * factor[:, None]
+
+
+def undistort_normalized(xd, dist, iterations: int = 20) -> np.ndarray:
+    """Invert :func:`distort_normalized` (N, 2) by fixed-point iteration (exact for
+    the mild distortion of broadcast lenses)."""
+    xd = np.asarray(xd, dtype=np.float64)
+    xu = xd.copy()
+    for _ in range(iterations):
+        r2 = (xu * xu).sum(axis=1)
+        factor = np.ones_like(r2)
+        rp = np.ones_like(r2)
+        for k in dist:
+            rp = rp * r2
+            factor = factor + k * rp
+        xu = xd / factor[:, None]
+    return xu

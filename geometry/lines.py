@@ -1,0 +1,259 @@
+"""Homogeneous lines: fitting, intersection, vanishing points, distances.
+
+A line is ``(a, b, c)`` with ``a x + b y + c = 0``; points are ``(x, y, w)``.
+Lines returned here are normalised so that ``a^2 + b^2 = 1`` (then
+``l . (x, y, 1)`` is the signed Euclidean distance), unless the line is the
+line at infinity.
+
+>>> l = line_through((0.0, 0.0, 1.0), (1.0, 1.0, 1.0))
+>>> bool(np.allclose(np.abs(point_line_distance([[1.0, 0.0]], l)), np.sqrt(0.5)))
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "LineFit",
+    "normalize_line",
+    "line_through",
+    "intersect_lines",
+    "fit_line",
+    "vanishing_point",
+    "point_line_distance",
+    "to_homogeneous",
+    "hartley_normalization",
+    "from_homogeneous",
+]
+
+_EPS = 1e-12
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """Result of a total-least-squares line fit.
+
+    Attributes
+    ----------
+    line : (3,) float64, normalised (a^2 + b^2 = 1)
+    centroid : (2,) float64, weighted centroid of the points
+    direction : (2,) float64, unit direction of the line
+    rms : float, weighted RMS orthogonal distance of the points
+    normal_sigma : float
+        Standard deviation of the line's offset along its normal at the
+        centroid (``rms / sqrt(effective N)``), in the points' units.
+    angle_sigma : float
+        Standard deviation of the line's direction, radians.
+    n_points : int
+    """
+
+    line: np.ndarray
+    centroid: np.ndarray
+    direction: np.ndarray
+    rms: float
+    normal_sigma: float
+    angle_sigma: float
+    n_points: int
+
+
+def to_homogeneous(pts) -> np.ndarray:
+    """(N, 2) -> (N, 3) by appending w = 1."""
+    p = np.asarray(pts, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"pts must have shape (N, 2), got {p.shape}")
+    return np.column_stack([p, np.ones(len(p))])
+
+
+def from_homogeneous(X) -> np.ndarray:
+    """(N, 3) homogeneous -> (N, 2) Euclidean; points at infinity raise ``ValueError``."""
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ValueError(f"homogeneous points must have shape (N, 3), got {X.shape}")
+    w = X[:, 2]
+    if np.any(np.abs(w) < _EPS * np.maximum(1.0, np.abs(X[:, :2]).max(axis=1))):
+        raise ValueError("point at infinity has no Euclidean coordinates")
+    return X[:, :2] / w[:, None]
+
+
+def hartley_normalization(pts) -> np.ndarray:
+    """Hartley's conditioning similarity for a point set.
+
+    Parameters
+    ----------
+    pts : (N, 2) array_like
+
+    Returns
+    -------
+    (3, 3) float64 ``T`` moving the centroid to the origin and scaling the mean
+    distance from it to ``sqrt(2)``; apply as ``T @ (x, y, 1)``.
+
+    Raises
+    ------
+    ValueError
+        If all points coincide.
+    """
+    p = np.asarray(pts, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2 or len(p) == 0:
+        raise ValueError(f"pts must have shape (N, 2) with N >= 1, got {p.shape}")
+    c = p.mean(axis=0)
+    d = np.sqrt(((p - c) ** 2).sum(axis=1)).mean()
+    if d < _EPS * max(1.0, float(np.abs(c).max())):
+        raise ValueError("points are all coincident")
+    s = np.sqrt(2.0) / d
+    return np.array([[s, 0.0, -s * c[0]], [0.0, s, -s * c[1]], [0.0, 0.0, 1.0]])
+
+
+def normalize_line(line) -> np.ndarray:
+    """Scale a line (3,) so that ``a^2 + b^2 = 1`` (the line at infinity to unit norm)."""
+    l = np.asarray(line, dtype=np.float64)
+    if l.shape != (3,):
+        raise ValueError(f"line must be (3,), got {l.shape}")
+    n = np.hypot(l[0], l[1])
+    if n < _EPS * max(1.0, abs(l[2])):
+        if abs(l[2]) < _EPS:
+            raise ValueError("line vector is zero")
+        return l / np.linalg.norm(l)
+    return l / n
+
+
+def line_through(p, q) -> np.ndarray:
+    """Line through two homogeneous points (3,) each: ``p x q``, normalised.
+
+    Raises ``ValueError`` if the points coincide.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    if p.shape != (3,) or q.shape != (3,):
+        raise ValueError("points must be homogeneous (3,) vectors")
+    l = np.cross(p, q)
+    if np.linalg.norm(l) < _EPS * np.linalg.norm(p) * np.linalg.norm(q):
+        raise ValueError("points coincide: the line through them is undefined")
+    return normalize_line(l)
+
+
+def intersect_lines(l1, l2) -> np.ndarray:
+    """Intersection of two lines (3,) each: homogeneous point (3,), unit norm.
+
+    Parallel lines give a point at infinity (w = 0). Raises ``ValueError`` if the
+    lines coincide.
+    """
+    a = np.asarray(l1, dtype=np.float64)
+    b = np.asarray(l2, dtype=np.float64)
+    if a.shape != (3,) or b.shape != (3,):
+        raise ValueError("lines must be homogeneous (3,) vectors")
+    x = np.cross(a / np.linalg.norm(a), b / np.linalg.norm(b))
+    n = np.linalg.norm(x)
+    if n < 1e-14:
+        raise ValueError("lines coincide: intersection undefined")
+    return x / n
+
+
+def fit_line(pts, weights=None) -> LineFit:
+    """Weighted total-least-squares line fit (orthogonal regression).
+
+    Parameters
+    ----------
+    pts : (N, 2) array_like, N >= 2
+    weights : (N,) array_like, optional, non-negative
+
+    Returns
+    -------
+    LineFit
+
+    Raises
+    ------
+    ValueError
+        Fewer than 2 points (with positive weight) or all points coincide.
+    """
+    p = np.asarray(pts, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"pts must have shape (N, 2), got {p.shape}")
+    if len(p) < 2:
+        raise ValueError(f"a line fit needs at least 2 points, got {len(p)}")
+    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=np.float64)
+    if w.shape != (len(p),) or np.any(w < 0) or not np.all(np.isfinite(w)):
+        raise ValueError("weights must be (N,) finite and non-negative")
+    if np.count_nonzero(w) < 2:
+        raise ValueError("a line fit needs at least 2 points with positive weight")
+    W = w.sum()
+    c = (w[:, None] * p).sum(axis=0) / W
+    d = p - c
+    S = (w[:, None] * d).T @ d / W
+    evals, evecs = np.linalg.eigh(S)
+    if evals[1] < _EPS:
+        raise ValueError("points coincide: no line through them")
+    normal = evecs[:, 0]
+    direction = evecs[:, 1]
+    line = np.array([normal[0], normal[1], -normal @ c])
+    rms = float(np.sqrt(max(evals[0], 0.0)))
+    n_eff = W * W / (w * w).sum()
+    spread = np.sqrt(evals[1])
+    # noise sigma estimated as rms * sqrt(n / (n - 2)); offset std = sigma / sqrt(n)
+    sigma_n = rms / np.sqrt(n_eff - 2) if n_eff > 2 else np.inf
+    sigma_a = sigma_n / spread
+    return LineFit(
+        line=line,
+        centroid=c,
+        direction=direction,
+        rms=rms,
+        normal_sigma=float(sigma_n),
+        angle_sigma=float(sigma_a),
+        n_points=len(p),
+    )
+
+
+def vanishing_point(lines, weights=None) -> np.ndarray:
+    """Least-squares common point of a bundle of lines.
+
+    Minimises ``sum_i w_i (l_i . v)^2`` over unit ``v`` with each line
+    normalised to ``a^2 + b^2 = 1`` (so the residual is the distance of the
+    point from the line, to first order for finite points).
+
+    Parameters
+    ----------
+    lines : (N, 3) array_like, N >= 2
+    weights : (N,) array_like, optional
+
+    Returns
+    -------
+    (3,) float64 homogeneous point, unit norm (w may be 0: a point at infinity).
+
+    Raises
+    ------
+    ValueError
+        Fewer than 2 lines, or all lines coincide.
+    """
+    L = np.asarray(lines, dtype=np.float64)
+    if L.ndim != 2 or L.shape[1] != 3:
+        raise ValueError(f"lines must have shape (N, 3), got {L.shape}")
+    if len(L) < 2:
+        raise ValueError(f"a vanishing point needs at least 2 lines, got {len(L)}")
+    L = np.array([normalize_line(l) for l in L])
+    if weights is not None:
+        w = np.asarray(weights, dtype=np.float64)
+        if w.shape != (len(L),) or np.any(w < 0):
+            raise ValueError("weights must be (N,) non-negative")
+        L = L * np.sqrt(w)[:, None]
+    # condition: scale the homogeneous coordinate
+    s = max(1.0, float(np.median(np.abs(L[:, 2]))))
+    Ls = L * np.array([1.0, 1.0, 1.0 / s])
+    _, sv, Vt = np.linalg.svd(Ls)
+    if len(sv) >= 2 and sv[1] < 1e-12 * max(sv[0], _EPS):
+        raise ValueError("lines coincide: vanishing point undefined")
+    v = Vt[-1] * np.array([1.0, 1.0, 1.0 / s])
+    return v / np.linalg.norm(v)
+
+
+def point_line_distance(pts, line) -> np.ndarray:
+    """Signed Euclidean distance of points (N, 2) from a finite line (3,): (N,) float64."""
+    p = np.asarray(pts, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"pts must have shape (N, 2), got {p.shape}")
+    l = np.asarray(line, dtype=np.float64)
+    n = np.hypot(l[0], l[1]) if l.shape == (3,) else 0.0
+    if n < _EPS:
+        raise ValueError("distance to the line at infinity (or a zero line) is undefined")
+    return (p @ l[:2] + l[2]) / n
