@@ -257,7 +257,7 @@ def KRt_from_P(P) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if P.shape != (3, 4):
         raise ValueError(f"P must be 3x4, got {P.shape}")
     M = P[:, :3]
-    if abs(np.linalg.det(M)) < 1e-12 * np.linalg.norm(M) ** 3:
+    if not abs(np.linalg.det(M)) > 1e-12 * np.linalg.norm(M) ** 3:
         raise ValueError("P has a singular left 3x3 block (camera at infinity)")
     K, R = scipy.linalg.rq(M)
     S = np.diag(np.sign(np.diag(K)))
@@ -266,7 +266,7 @@ def KRt_from_P(P) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if np.linalg.det(R) < 0:
         R, t = -R, -t
     scale = K[2, 2]
-    return K / scale, R, t / scale
+    return K / scale, R, t
 
 
 def iac(K) -> np.ndarray:

@@ -355,8 +355,8 @@ def ellipse_distance(pts, ellipse: Ellipse, *, signed: bool = False) -> np.ndarr
     y1 = np.abs(-d[:, 0] * sa + d[:, 1] * ca)
     x0 = np.empty_like(y0)
     x1 = np.empty_like(y1)
-    pos1 = y1 > 0
-    pos0 = y0 > 0
+    pos1 = y1 > 1e-12 * a
+    pos0 = y0 > 1e-12 * a
     both = pos0 & pos1
     if np.any(both):
         z0, z1 = y0[both] / a, y1[both] / b
@@ -586,24 +586,33 @@ def intersect_line_conic(C, line, *, allow_complex: bool = False) -> np.ndarray:
     line = np.asarray(line)
     if line.shape != (3,) or np.linalg.norm(line) < _EPS:
         raise ValueError("line must be a non-zero homogeneous (3,) vector")
-    p, q = _two_points_on_line(line / np.linalg.norm(line))
-    Cn = C / np.linalg.norm(C)
+    real_input = not np.iscomplexobj(C) and not np.iscomplexobj(line)
+    T = conic_conditioning(C) if real_input else np.eye(3)
+    Ti = np.linalg.inv(T)
+    Cn = Ti.T @ C @ Ti
+    Cn = Cn / np.linalg.norm(Cn)
+    ln = Ti.T @ line
+    p, q = _two_points_on_line(ln / np.linalg.norm(ln))
     a = p @ Cn @ p
     b = p @ Cn @ q
     c = q @ Cn @ q
     if max(abs(a), abs(b), abs(c)) < 1e-13:
         raise ValueError("line lies on the conic (degenerate conic): intersection undefined")
     disc = b * b - a * c
-    is_real = not np.iscomplexobj(disc) or abs(np.imag(disc)) < 1e-14
-    if is_real and np.real(disc) < -1e-14 * max(abs(b * b), abs(a * c), 1e-300) and not allow_complex:
-        raise ValueError("line does not meet the conic (complex intersection)")
+    scale = max(abs(b * b), abs(a * c), 1e-300)
+    if real_input:
+        if disc < -1e-9 * scale and not allow_complex:
+            raise ValueError("line does not meet the conic (complex intersection)")
+        if abs(disc) <= 1e-9 * scale:
+            disc = 0.0  # tangent: one double point
     sq = np.sqrt(disc + 0j)
     if abs(a) >= abs(c):
         pts = [((-b + s) / a) * p + q for s in (sq, -sq)]
     else:
         pts = [p + ((-b + s) / c) * q for s in (sq, -sq)]
-    out = np.array([x / np.linalg.norm(x) for x in pts])
-    if not np.iscomplexobj(C) and not np.iscomplexobj(line) and np.all(np.abs(out.imag) < 1e-9):
+    out = np.array([x / np.linalg.norm(x) for x in pts]) @ Ti.T
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    if real_input and np.real(disc) >= 0:
         return _real_homogeneous(out)
     if not allow_complex:
         raise ValueError("line does not meet the conic (complex intersection)")

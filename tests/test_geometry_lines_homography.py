@@ -1,0 +1,137 @@
+"""Round trips and degenerate inputs for geometry.lines and geometry.homography."""
+
+import numpy as np
+import pytest
+
+from geometry import conics as gc
+from geometry import homography as gh
+from geometry import lines as gl
+
+
+def random_homography(rng):
+    H = np.eye(3) + rng.normal(0, 0.2, (3, 3))
+    H[2, :2] = rng.normal(0, 1e-3, 2)
+    H[:2, 2] = rng.uniform(-100, 100, 2)
+    return H
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_fit_line_exact_and_weighted(seed):
+    rng = np.random.default_rng(seed)
+    theta = rng.uniform(0, np.pi)
+    d = np.array([np.cos(theta), np.sin(theta)])
+    p0 = rng.uniform(0, 1000, 2)
+    pts = p0 + rng.uniform(-300, 300, (50, 1)) * d
+    fit = gl.fit_line(pts)
+    assert np.max(np.abs(gl.point_line_distance(pts, fit.line))) < 1e-9
+    assert np.isclose(np.hypot(*fit.line[:2]), 1.0)
+    assert abs(abs(fit.direction @ d) - 1) < 1e-12
+    # an outlier with zero weight changes nothing
+    pts2 = np.vstack([pts, p0 + 50 * np.array([-d[1], d[0]])])
+    w = np.r_[np.ones(50), 0.0]
+    fit2 = gl.fit_line(pts2, w)
+    assert np.allclose(np.abs(fit2.line), np.abs(fit.line), atol=1e-9)
+    # uncertainty grows with noise
+    noisy = pts + rng.normal(0, 1.0, pts.shape)
+    nf = gl.fit_line(noisy)
+    assert 0.5 < nf.rms < 1.5
+    assert 0.05 < nf.normal_sigma < 0.3 and nf.angle_sigma < 0.01
+
+
+def test_line_through_and_intersect():
+    p, q, r = np.array([1.0, 2.0, 1.0]), np.array([4.0, -1.0, 1.0]), np.array([0.0, 5.0, 1.0])
+    l1 = gl.line_through(p, q)
+    l2 = gl.line_through(p, r)
+    x = gl.intersect_lines(l1, l2)
+    assert np.allclose(x[:2] / x[2], p[:2])
+    # parallel lines meet at infinity
+    x = gl.intersect_lines([1.0, 0.0, -1.0], [1.0, 0.0, -5.0])
+    assert abs(x[2]) < 1e-12
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_vanishing_point(seed):
+    rng = np.random.default_rng(seed)
+    v = np.array([*rng.uniform(-3000, 3000, 2), 1.0])
+    lines = [np.cross(v, [rng.uniform(0, 1280), rng.uniform(0, 720), 1.0]) for _ in range(6)]
+    got = gl.vanishing_point(np.array(lines))
+    assert np.allclose(got[:2] / got[2], v[:2], rtol=1e-8)
+    # parallel lines: point at infinity
+    par = np.array([[0.0, 1.0, -c] for c in (10.0, 200.0, 500.0)])
+    vp = gl.vanishing_point(par)
+    assert abs(vp[2]) < 1e-12 and abs(abs(vp[0]) - 1) < 1e-12
+
+
+def test_homogeneous_conversion_round_trip():
+    p = np.random.default_rng(0).uniform(-5, 5, (7, 2))
+    assert np.allclose(gl.from_homogeneous(gl.to_homogeneous(p) * 3.0), p)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_homography_from_points_and_lines(seed):
+    rng = np.random.default_rng(seed)
+    H = random_homography(rng)
+    src = rng.uniform(0, 1000, (12, 2))
+    dst = gh.transfer_points(H, src)
+    Hn = H / np.linalg.norm(H) * np.sign(H[2, 2])
+    assert np.allclose(gh.homography_from_points(src, dst), Hn, atol=1e-9)
+    assert np.allclose(gh.homography_from_points(src[:4], dst[:4]), Hn, atol=1e-8)
+    L = np.array([np.cross([*src[i], 1.0], [*src[i + 1], 1.0]) for i in range(6)])
+    Ld = gh.transfer_lines(H, L)
+    assert np.allclose(gh.homography_from_lines(L, Ld), Hn, atol=1e-8)
+    # transferred lines pass through transferred points
+    for i in range(6):
+        assert abs(Ld[i] @ [*dst[i], 1.0]) < 1e-8 * np.linalg.norm(dst[i])
+    # conic transfer: points of the image conic are images of the conic's points
+    e = gc.Ellipse(center=(500, 500), axes=(100, 40), angle=0.2)
+    E2 = gh.transfer_conic(H, e.conic)
+    img = gh.transfer_points(H, e.points(30))
+    T = gc.conic_conditioning(E2)
+    X = np.column_stack([img, np.ones(30)]) @ T.T
+    Cn = gc.normalize_conic(np.linalg.inv(T).T @ E2 @ np.linalg.inv(T))
+    assert np.max(np.abs(np.einsum("ij,jk,ik->i", X, Cn, X))) < 1e-9
+
+
+def test_homography_noise_is_bounded():
+    rng = np.random.default_rng(1)
+    H = random_homography(rng)
+    src = rng.uniform(0, 1000, (40, 2))
+    dst = gh.transfer_points(H, src) + rng.normal(0, 0.5, (40, 2))
+    He = gh.homography_from_points(src, dst)
+    err = np.linalg.norm(gh.transfer_points(He, src) - gh.transfer_points(H, src), axis=1)
+    assert np.median(err) < 0.5
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda: gh.homography_from_points(np.zeros((3, 2)), np.zeros((3, 2))), "at least 4"),
+        (
+            lambda: gh.homography_from_points(
+                np.array([[0, 0], [1, 1], [2, 2], [5, 1.0]]), np.array([[0, 0], [1, 0], [0, 1], [1, 1.0]])
+            ),
+            "collinear",
+        ),
+        (lambda: gh.homography_from_points(np.ones((5, 2)), np.ones((5, 2))), "coincident"),
+        (lambda: gh.homography_from_points(np.zeros((5, 2)), np.zeros((4, 2))), "same shape"),
+        (lambda: gh.transfer_points(np.diag([1.0, 1.0, 0.0]), np.zeros((2, 2))), "singular"),
+        (lambda: gh.transfer_conic(np.zeros((3, 3)), np.eye(3)), "singular"),
+        (lambda: gh.transfer_points(np.array([[1.0, 0, 0], [0, 1, 0], [1, 0, 1]]), np.array([[-1.0, 0.0]])), "infinity"),
+        (
+            lambda: gh.homography_from_lines(
+                np.array([[1.0, 0, 0], [0, 1.0, 0], [1.0, 1.0, 0], [1.0, -1.0, 0]]), np.eye(3)[[0, 1, 2, 2]]
+            ),
+            "concurrent",
+        ),
+        (lambda: gl.fit_line(np.zeros((1, 2))), "at least 2"),
+        (lambda: gl.fit_line(np.ones((5, 2))), "coincide"),
+        (lambda: gl.line_through([1.0, 2.0, 1.0], [2.0, 4.0, 2.0]), "coincide"),
+        (lambda: gl.intersect_lines([1.0, 2.0, 3.0], [2.0, 4.0, 6.0]), "coincide"),
+        (lambda: gl.vanishing_point(np.array([[1.0, 0, 0]])), "at least 2"),
+        (lambda: gl.point_line_distance(np.zeros((1, 2)), [0.0, 0.0, 1.0]), "line at infinity"),
+        (lambda: gl.from_homogeneous(np.array([[1.0, 2.0, 0.0]])), "infinity"),
+    ],
+)
+def test_degenerate_inputs(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
