@@ -1,0 +1,217 @@
+"""Sinks: H.264 encode with PyAV, and JSON-lines writers (``cameras.jsonl``,
+``truth.jsonl``).
+
+Sinks are context managers: on leaving the ``with`` block — normally, on an
+exception or on Ctrl-C — the encoder is flushed and the container trailer
+written, so the file is always playable up to the last frame written, and
+JSON-lines files are complete up to the last record. Outputs are written to
+a temporary name beside the target and renamed into place on close, so a
+file with the final name is never half-written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from fractions import Fraction
+
+import av
+import numpy as np
+
+from arstream.errors import InputError
+
+__all__ = ["VideoSink", "JsonlWriter", "read_jsonl", "atomic_path"]
+
+
+def atomic_path(path: str) -> str:
+    """Temporary name beside ``path`` used until the output is complete
+    (keeps the extension, so muxers still recognise the format)."""
+    d, name = os.path.split(os.path.abspath(path))
+    stem, ext = os.path.splitext(name)
+    return os.path.join(d, f".{stem}.partial{ext}")
+
+
+def _prepare_dir(path: str) -> None:
+    d = os.path.dirname(os.path.abspath(path))
+    try:
+        os.makedirs(d, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {d}: {exc.strerror}") from None
+
+
+class VideoSink:
+    """Encode BGR frames to H.264 (libx264, yuv420p) with PyAV.
+
+    Parameters
+    ----------
+    path : str, output file (.mp4, .mkv, ...)
+    width, height : int, frame size (even numbers are padded by the encoder's
+        requirements: odd sizes are rejected with a clear error)
+    rate : Fraction or float, frame rate
+    crf : int, x264 constant rate factor (lower is better quality)
+    preset : str, x264 preset
+    time_base : Fraction, optional, stream time base (defaults to 1/rate)
+    audio_from : av.audio.stream.AudioStream, optional
+        An input audio stream to copy through unchanged (use :meth:`mux_audio`).
+    threads : int, encoder threads (0 = auto)
+    """
+
+    def __init__(
+        self,
+        path,
+        width: int,
+        height: int,
+        rate,
+        *,
+        crf: int = 20,
+        preset: str = "veryfast",
+        time_base: Fraction | None = None,
+        audio_from=None,
+        threads: int = 0,
+    ):
+        self.path = os.fspath(path)
+        if width <= 0 or height <= 0:
+            raise InputError(f"invalid frame size {width}x{height}")
+        _prepare_dir(self.path)
+        self.tmp = atomic_path(self.path)
+        self.rate = Fraction(rate).limit_denominator(100000)
+        self.container = av.open(self.tmp, mode="w")
+        self.stream = self.container.add_stream("libx264", rate=self.rate)
+        self.stream.width = width + (width % 2)
+        self.stream.height = height + (height % 2)
+        self.stream.pix_fmt = "yuv420p"
+        self.stream.time_base = time_base or Fraction(1, 1) / self.rate
+        self.stream.options = {"crf": str(crf), "preset": preset}
+        self.stream.codec_context.thread_count = threads
+        self.width, self.height = width, height
+        self.audio_out = None
+        if audio_from is not None:
+            self.audio_out = self.container.add_stream_from_template(audio_from)
+        self.frames_written = 0
+        self._closed = False
+
+    def __enter__(self) -> "VideoSink":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def write(self, image: np.ndarray, pts: float | None = None) -> None:
+        """Encode one BGR uint8 (H, W, 3) frame; ``pts`` in seconds (default: index / rate)."""
+        if image.shape[:2] != (self.height, self.width):
+            raise ValueError(f"frame is {image.shape[1]}x{image.shape[0]}, sink expects {self.width}x{self.height}")
+        if (self.stream.width, self.stream.height) != (self.width, self.height):
+            image = np.pad(image, ((0, self.stream.height - self.height), (0, self.stream.width - self.width), (0, 0)), mode="edge")
+        vf = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
+        tb = self.stream.time_base
+        if pts is None:
+            vf.pts = int(round(self.frames_written / self.rate / tb))
+        else:
+            vf.pts = int(round(pts / tb))
+        vf.time_base = tb
+        for packet in self.stream.encode(vf):
+            self.container.mux(packet)
+        self.frames_written += 1
+
+    def mux_audio(self, packet) -> None:
+        """Copy one demuxed audio packet through unchanged."""
+        if self.audio_out is None or packet.dts is None:
+            return
+        packet.stream = self.audio_out
+        self.container.mux(packet)
+
+    def close(self, *, keep: bool = True) -> None:
+        """Flush the encoder, write the trailer and move the file into place.
+
+        ``keep=False`` discards the output (nothing is left under the final name).
+        """
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            for packet in self.stream.encode(None):
+                self.container.mux(packet)
+        finally:
+            self.container.close()
+        if keep and self.frames_written > 0:
+            os.replace(self.tmp, self.path)
+        else:
+            try:
+                os.remove(self.tmp)
+            except FileNotFoundError:
+                pass
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, np.bool_):
+        return bool(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def _check_finite(obj, where: str) -> None:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        raise ValueError(f"refusing to write a non-finite number in {where}")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _check_finite(v, f"{where}.{k}")
+    elif isinstance(obj, (list, tuple)):
+        for v in obj:
+            _check_finite(v, where)
+
+
+class JsonlWriter:
+    """Write one JSON object per line; flushed per record, renamed into place on close.
+
+    NaN or infinite numbers raise ``ValueError`` (DESIGN: never NaNs in output).
+    """
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        _prepare_dir(self.path)
+        self.tmp = atomic_path(self.path)
+        self.f = open(self.tmp, "w", encoding="utf-8")
+        self.count = 0
+
+    def __enter__(self) -> "JsonlWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def write(self, record: dict) -> None:
+        rec = json.loads(json.dumps(record, default=_json_default))
+        _check_finite(rec, "record")
+        self.f.write(json.dumps(rec, separators=(",", ":")) + "\n")
+        self.f.flush()
+        self.count += 1
+
+    def close(self) -> None:
+        if self.f.closed:
+            return
+        self.f.close()
+        os.replace(self.tmp, self.path)
+
+
+def read_jsonl(path) -> list[dict]:
+    """Read a JSON-lines file; a clear ``InputError`` for a missing file or a bad line."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(f"file not found: {path}")
+    out = []
+    with open(path, encoding="utf-8") as f:
+        for i, line in enumerate(f, 1):
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError as exc:
+                raise InputError(f"{path}:{i}: not valid JSON ({exc.msg})") from None
+    return out
