@@ -796,7 +796,8 @@ def _clip_halfplane(poly: np.ndarray, n: np.ndarray, offset: float) -> np.ndarra
 def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250, size=(1280, 720), fps: float = 25.0, crf: int = 23, progress=None) -> dict:
     """Write ``clip.mp4``, ``truth.jsonl`` and ``header.json`` into ``out_dir``.
 
-    Returns the header dict (with the measured generation speed).
+    Returns the header dict plus ``generation_fps`` (measured frames per second,
+    not written to the header so that the same seed gives identical files).
     """
     import time
 
@@ -822,8 +823,7 @@ def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250,
         "fps": fps,
         "pitch": {"length": clip.pitch.length, "width": clip.pitch.width, "line_width": clip.pitch.line_width},
         "camera_center": clip.camera_center.tolist(),
-        "generation_fps": round(clip.n / elapsed, 2),
     }
     with open(os.path.join(out_dir, "header.json"), "w") as f:
         json.dump(header, f, indent=2)
-    return header
+    return {**header, "generation_fps": round(clip.n / elapsed, 2)}

@@ -169,3 +169,15 @@ def test_cli_synth(tmp_path, capsys):
     assert (tmp_path / "c" / "clip.mp4").exists()
     assert main(["synth", "--frames", "3", "--size", "321x180", "--out", str(tmp_path / "d")]) == 2
     assert "even" in capsys.readouterr().err
+
+
+def test_committed_sample_matches_its_generator():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "samples" / "wide"
+    truth = read_jsonl(root / "truth.jsonl")
+    header = json.loads((root / "header.json").read_text())
+    clip = SynthClip(header["preset"]["name"], header["seed"], header["frames"], tuple(header["size"]), header["fps"])
+    assert len(truth) == clip.n == 250
+    for i in (0, 101, 249):
+        assert json.loads(json.dumps(clip.truth(i).to_record())) == truth[i]
