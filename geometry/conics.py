@@ -254,13 +254,11 @@ def ellipse_from_conic(C) -> Ellipse:
     """
     C = normalize_conic(C)
     M = C[:2, :2]
-    if np.linalg.det(M) <= 1e-14 * max(1.0, np.abs(M).max() ** 2):
+    w, V = np.linalg.eigh(M)  # ascending: w[0] smallest -> major axis
+    if w[1] <= 0 or w[0] <= 1e-13 * w[1]:
         raise ValueError("conic is not an ellipse (hyperbola, parabola or degenerate)")
     center = np.linalg.solve(M, -C[:2, 2])
     f0 = C[2, 2] + C[:2, 2] @ center  # value at the centre
-    w, V = np.linalg.eigh(M)  # ascending: w[0] smallest -> major axis
-    if w[0] <= 0:
-        raise ValueError("conic is not an ellipse (indefinite quadratic part)")
     if f0 >= -1e-15:
         raise ValueError("conic is an imaginary or degenerate (point) ellipse")
     a = np.sqrt(-f0 / w[0])
@@ -553,7 +551,7 @@ def pole(C, line) -> np.ndarray:
 
 def _two_points_on_line(line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two independent homogeneous points on a (possibly complex) line (3,)."""
-    cands = [np.cross(line, e) for e in np.eye(3)]
+    cands = [_cross(line, e) for e in np.eye(3)]
     norms = [np.linalg.norm(c) for c in cands]
     order = np.argsort(norms)[::-1]
     p, q = cands[order[0]], cands[order[1]]
@@ -663,10 +661,15 @@ def split_degenerate_conic(D) -> tuple[np.ndarray, np.ndarray]:
     return g / np.linalg.norm(g), h / np.linalg.norm(h)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of two 3-vectors (np.cross is slow for single vectors)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def _adjugate(A: np.ndarray) -> np.ndarray:
     """Adjugate (transpose of the cofactor matrix) of a 3x3 matrix."""
     c0, c1, c2 = A[:, 0], A[:, 1], A[:, 2]
-    return np.array([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)])
+    return np.array([_cross(c1, c2), _cross(c2, c0), _cross(c0, c1)])
 
 
 def conic_conditioning(*conics) -> np.ndarray:

@@ -1,0 +1,694 @@
+"""The camera of a frame: closed form from the centre circle's pole-polar
+relations, an initialiser from line correspondences, and refinement against
+every visible marking.
+
+Closed form (DESIGN.md section 3). The centre circle is ``C_w = diag(1, 1, -r^2)``
+(r = 9.09 m, the painted line's centre) and its image is the ellipse ``E``.
+Pole-polar relations survive projection, so the vanishing line of the pitch
+is the polar of the imaged centre, the pole of the halfway line is the
+touchlines' vanishing point, and the imaged circular points lie on ``E``, on
+the vanishing line and on the image of the absolute conic ``omega``. With
+square pixels, zero skew and a known principal point, ``omega`` depends on f
+only. For each f, ``E`` and ``omega(f)`` meet in two complex-conjugate pairs;
+each pair spans a real line, the candidate vanishing line ``l_v(f)``; the true
+f makes the pole of ``l_v`` lie on the halfway line:
+``g(f) = l_h^T E^-1 l_v(f) = 0``. Everything is computed in coordinates
+centred on the principal point and scaled by the image width (without that,
+``g`` is numerically flat). Then ``r1 ~ K^-1 v_x``, ``r2 ~ K^-1 v_y``, the
+centre's image gives the direction of ``t`` and the radius its length; signs
+follow from "camera above the pitch, on the near side (Y < 0)".
+
+Refinement: the model's markings are sampled, projected, matched to the
+nearest detected line pixels, and the point-to-line distances along the
+projected markings' normals are minimised (robust soft-L1 loss) over the pose
+and f — or, for a broadcast camera on a tripod whose centre is known, over
+pan, tilt, roll and f only — optionally with one radial coefficient k1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import cv2
+import numpy as np
+import scipy.optimize
+from scipy.spatial import cKDTree
+
+from geometry.camera import PTZ, Camera, camera_from_homography, camera_from_ptz, intrinsic_matrix, ptz_from_camera
+from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
+from geometry.homography import homography_from_lines
+from geometry.lines import intersect_lines, normalize_line
+from geometry.pitch import Arc, PitchModel
+
+__all__ = [
+    "CircleSolution",
+    "solve_from_circle",
+    "ModelSamples",
+    "LineIndex",
+    "Refinement",
+    "refine_camera",
+    "cameras_from_line_hypotheses",
+]
+
+
+# ---------------------------------------------------------------------------
+# closed form from the centre circle
+@dataclass(frozen=True)
+class CircleSolution:
+    """A camera from the centre circle and the halfway line.
+
+    Attributes
+    ----------
+    camera : Camera (pitch frame; square pixels, the given principal point)
+    f : float, focal length (pixels)
+    orthogonality : float, ``|r1 . r2|`` before orthonormalisation (0 for exact data)
+    centre_image : (2,) pixels, the image of the centre spot (pole of the vanishing line)
+    """
+
+    camera: Camera
+    f: float
+    orthogonality: float
+    centre_image: np.ndarray
+
+
+def _normaliser(principal_point, scale: float) -> np.ndarray:
+    cx, cy = principal_point
+    return np.array([[1 / scale, 0, -cx / scale], [0, 1 / scale, -cy / scale], [0, 0, 1.0]])
+
+
+def _candidate_vanishing_lines(En: np.ndarray, phi: float) -> list[np.ndarray]:
+    """The two real lines through the conjugate pairs of ``E_n ∩ omega_n(phi)``.
+
+    ``E_n`` meets the imaginary conic ``omega_n = diag(1, 1, phi^2)`` in two
+    complex-conjugate pairs. Of the three degenerate members of the pencil
+    ``E_n - lam omega_n`` (the three ways to pair the four points), the one
+    joining each point to its conjugate is a pair of *real* lines, i.e. an
+    indefinite rank-2 matrix; the other two are conjugate line pairs
+    (semi-definite). The candidate vanishing lines are that pair's lines
+    (normalised coordinates).
+    """
+    omega = np.array([1.0, 1.0, phi * phi])
+    lams = np.linalg.eigvals(En / omega[:, None])
+    best, score = None, 0.0
+    for lam in lams:
+        if abs(lam.imag) > 1e-9 * max(1.0, abs(lam)):
+            continue
+        D = En - lam.real * np.diag(omega)
+        w = np.linalg.eigvalsh(D)
+        s = min(-w[0], w[2])  # both signs present: a real line pair
+        if s > score:
+            best, score = D, s
+    if best is None:
+        return []
+    g, h = split_degenerate_conic(best)
+    out = []
+    for l in (g, h):
+        k = np.argmax(np.abs(l))
+        l = np.real(l * np.conj(l[k]) / abs(l[k]))
+        out.append(l / np.linalg.norm(l))
+    return out
+
+
+def _g(En_inv: np.ndarray, ln: np.ndarray, lv: np.ndarray) -> float:
+    p = En_inv @ lv
+    return float(ln @ p / (np.linalg.norm(p) + 1e-300))
+
+
+def solve_from_circle(
+    E,
+    halfway_line,
+    principal_point,
+    *,
+    image_width: float,
+    radius: float | None = None,
+    f_range: tuple[float, float] = (0.25, 10.0),
+    samples: int = 32,
+) -> list[CircleSolution]:
+    """Cameras from the imaged centre circle and halfway line (pole-polar relations).
+
+    Parameters
+    ----------
+    E : (3, 3) conic of the imaged centre circle, pixels
+    halfway_line : (3,) image line of the halfway line, pixels
+    principal_point : (2,) pixels
+    image_width : float, pixels (sets the numerical conditioning)
+    radius : float, centreline radius of the centre circle (m); default from PitchModel
+    f_range : (lo, hi) focal lengths searched, as multiples of ``image_width``
+    samples : grid size of the 1-D search before root polishing
+
+    Returns
+    -------
+    list of CircleSolution, best (smallest orthogonality residual) first.
+
+    Raises
+    ------
+    ValueError
+        ``E`` is not an ellipse; the halfway line misses it; the ellipse is so
+        flat that the circle is seen edge-on; or no focal length in range
+        satisfies the constraint.
+    """
+    radius = PitchModel()["centre_circle"].radius if radius is None else float(radius)
+    e = ellipse_from_conic(E)  # raises for non-ellipses
+    if e.axes[1] / e.axes[0] < 0.03 or e.axes[1] < 2.0:
+        raise ValueError("ellipse too flat: the centre circle is seen edge-on")
+    lh = normalize_line(np.asarray(halfway_line, dtype=np.float64))
+    try:
+        ends = intersect_line_conic(E, lh)
+    except ValueError:
+        raise ValueError("the halfway line does not cross the centre-circle ellipse") from None
+    T = _normaliser(principal_point, image_width)
+    Ti = np.linalg.inv(T)
+    En = normalize_conic(Ti.T @ E @ Ti)
+    ln = Ti.T @ lh
+    ln = ln / np.linalg.norm(ln)
+    En_inv = np.linalg.inv(En)
+    phis = np.geomspace(f_range[0], f_range[1], samples)
+    # follow the two candidate lines over the grid by continuity
+    tracks: list[list] = []
+    prev = None
+    for phi in phis:
+        try:
+            cands = _candidate_vanishing_lines(En, phi)
+        except ValueError:
+            cands = []
+        if len(cands) != 2:
+            prev = None
+            tracks.append([None, None])
+            continue
+        if prev is not None and abs(cands[0] @ prev[1]) > abs(cands[0] @ prev[0]):
+            cands = cands[::-1]
+        # keep signs continuous
+        if prev is not None:
+            cands = [c if c @ p >= 0 else -c for c, p in zip(cands, prev)]
+        prev = cands
+        tracks.append([(phi, c, _g(En_inv, ln, c)) for c in cands])
+    roots = []
+    for k in range(2):
+        for a, b in zip(tracks[:-1], tracks[1:]):
+            if a[k] is None or b[k] is None:
+                continue
+            (pa, la, ga), (pb, lb, gb) = a[k], b[k]
+            if ga == 0 or np.sign(ga) != np.sign(gb):
+                ref = la
+
+                def gfun(phi, ref=ref):
+                    cs = _candidate_vanishing_lines(En, phi)
+                    c = max(cs, key=lambda c: abs(c @ ref))
+                    c = c if c @ ref >= 0 else -c
+                    return _g(En_inv, ln, c)
+
+                try:
+                    phi0 = scipy.optimize.brentq(gfun, pa, pb, xtol=1e-12, rtol=1e-12)
+                except (ValueError, RuntimeError):
+                    continue
+                cs = _candidate_vanishing_lines(En, phi0)
+                lv = max(cs, key=lambda c: abs(c @ ref))
+                roots.append((phi0, lv))
+    if not roots:
+        # noise can turn a pair of close roots into a near-miss: take clear local minima of |g|
+        for k in range(2):
+            vals = [(t[k][0], abs(t[k][2]), t[k][1]) if t[k] is not None else (None, np.inf, None) for t in tracks]
+            for j in range(1, len(vals) - 1):
+                if vals[j][1] < min(vals[j - 1][1], vals[j + 1][1]) and vals[j][1] < 0.05:
+                    ref = vals[j][2]
+
+                    def absg(phi, ref=ref):
+                        cs = _candidate_vanishing_lines(En, phi)
+                        if not cs:
+                            return 1.0
+                        c = max(cs, key=lambda c: abs(c @ ref))
+                        return abs(_g(En_inv, ln, c))
+
+                    opt = scipy.optimize.minimize_scalar(absg, bounds=(vals[j - 1][0] or phis[j - 1], vals[j + 1][0] or phis[j + 1]), method="bounded")
+                    if opt.fun < 0.02:
+                        cs = _candidate_vanishing_lines(En, opt.x)
+                        roots.append((opt.x, max(cs, key=lambda c: abs(c @ ref))))
+    if not roots:
+        raise ValueError("no focal length satisfies the pole-polar constraint for this ellipse and line")
+    sols = []
+    for phi, lv in roots:
+        try:
+            sols.append(_camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width))
+        except ValueError:
+            continue
+    if not sols:
+        raise ValueError("no physically valid camera (above the pitch, near side) for this ellipse and line")
+    sols.sort(key=lambda s: s.orthogonality)
+    return sols
+
+
+def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width) -> CircleSolution:
+    Kn = np.diag([phi, phi, 1.0])
+    Kn_inv = np.diag([1 / phi, 1 / phi, 1.0])
+    En_inv = np.linalg.inv(En)
+    o = En_inv @ lv  # imaged centre (normalised coords)
+    vx = En_inv @ ln  # pole of the halfway line: touchline direction
+    vy = np.cross(ln, lv)  # halfway line direction
+    d1 = Kn_inv @ vx
+    d2 = Kn_inv @ vy
+    d1 /= np.linalg.norm(d1)
+    d2 /= np.linalg.norm(d2)
+    ortho = abs(float(d1 @ d2))
+    d = Kn_inv @ o
+    d = d / np.linalg.norm(d)
+    if d[2] < 0:
+        d = -d
+    if d[2] <= 1e-9:
+        raise ValueError("the centre of the circle projects to infinity")
+    q_ends = [Kn_inv @ (T @ p) for p in ends]
+    f = phi * image_width
+    K = intrinsic_matrix(f, principal_point[0], principal_point[1])
+    best = None
+    for s1 in (1.0, -1.0):
+        for s2 in (1.0, -1.0):
+            r1, r2 = s1 * d1, s2 * d2
+            M = np.column_stack([r1, r2, np.cross(r1, r2)])
+            U, _, Vt = np.linalg.svd(M)
+            R = U @ Vt
+            r2o = R[:, 1]
+            # scale from the radius: the ends of the halfway chord are (0, +-r, 0)
+            lam = []
+            for q, sgn in zip(q_ends, (1.0, -1.0)):
+                a = np.cross(q, d)
+                b = np.cross(q, sgn * radius * r2o)
+                lam.append(-(a @ b) / (a @ a))
+            lam_alt = []
+            for q, sgn in zip(q_ends, (-1.0, 1.0)):
+                a = np.cross(q, d)
+                b = np.cross(q, sgn * radius * r2o)
+                lam_alt.append(-(a @ b) / (a @ a))
+            for ls in (lam, lam_alt):
+                if min(ls) <= 0:
+                    continue
+                t = np.mean(ls) * d
+                C = -R.T @ t
+                if C[2] > 0 and C[1] < 0:
+                    spread = abs(ls[0] - ls[1]) / np.mean(ls)
+                    if best is None or spread < best[0]:
+                        best = (spread, R, t)
+    if best is None:
+        raise ValueError("no sign choice puts the camera above the pitch on the near side")
+    _, R, t = best
+    cam = Camera(K=K, R=R, t=t)
+    o_px = np.linalg.solve(T, o)
+    return CircleSolution(camera=cam, f=f, orthogonality=ortho, centre_image=o_px[:2] / o_px[2])
+
+
+# ---------------------------------------------------------------------------
+# model samples and the detected-line index
+@dataclass(frozen=True)
+class ModelSamples:
+    """The pitch markings sampled for refinement.
+
+    Attributes
+    ----------
+    points : (N, 3) float64, pitch frame (Z = 0), metres
+    tangents : (N, 3) float64, unit tangent of the marking at each point
+    marking : (N,) int, index into ``names``
+    names : tuple of marking names
+    """
+
+    points: np.ndarray
+    tangents: np.ndarray
+    marking: np.ndarray
+    names: tuple
+
+    @classmethod
+    def from_pitch(cls, pitch: PitchModel | None = None, spacing: float = 0.5) -> "ModelSamples":
+        pitch = pitch or PitchModel()
+        P, Tg, M, names = [], [], [], []
+        for k, (name, m) in enumerate(pitch.markings.items()):
+            pts = m.sample(spacing)
+            if isinstance(m, Arc):
+                d = pts - np.asarray(m.center)
+                tg = np.column_stack([-d[:, 1], d[:, 0]])
+            else:
+                tg = np.tile(np.subtract(m.end, m.start), (len(pts), 1))
+            tg = tg / np.linalg.norm(tg, axis=1, keepdims=True)
+            P.append(np.column_stack([pts, np.zeros(len(pts))]))
+            Tg.append(np.column_stack([tg, np.zeros(len(tg))]))
+            M.append(np.full(len(pts), k))
+            names.append(name)
+        return cls(np.concatenate(P), np.concatenate(Tg), np.concatenate(M), tuple(names))
+
+
+class LineIndex:
+    """Nearest detected line pixel lookup (a k-d tree over sub-pixel line points).
+
+    Parameters
+    ----------
+    points : (M, 2) float64 line-pixel centres, pixels
+    """
+
+    def __init__(self, points: np.ndarray):
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        self.points = p
+        self.tree = cKDTree(p) if len(p) else None
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def nearest(self, q: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """Distances (N,) and nearest points (N, 2) for queries (N, 2); inf / NaN beyond ``radius``."""
+        if self.tree is None or len(q) == 0:
+            return np.full(len(q), np.inf), np.full((len(q), 2), np.nan)
+        d, idx = self.tree.query(q, k=1, distance_upper_bound=radius)
+        ok = np.isfinite(d)
+        out = np.full((len(q), 2), np.nan)
+        out[ok] = self.points[idx[ok]]
+        return d, out
+
+
+# ---------------------------------------------------------------------------
+@dataclass
+class Refinement:
+    """Result of :func:`refine_camera`.
+
+    Attributes
+    ----------
+    camera : Camera
+    confidence : float in [0, 1]: share of the in-view model points with a
+        detected line pixel within 2.5 px after refinement
+    rms : float, RMS of the inlier point-to-line residuals (px)
+    n_visible : int, model points in view
+    n_inliers : int
+    covariance : (k, k) parameter covariance (pan/tilt/roll rad, log f, ...)
+    params : tuple of parameter names matching ``covariance``
+    """
+
+    camera: Camera
+    confidence: float
+    rms: float
+    n_visible: int
+    n_inliers: int
+    covariance: np.ndarray = field(repr=False)
+    params: tuple = ()
+
+
+def _project(K, R, t, dist, X):
+    Xc = X @ R.T + t
+    z = Xc[:, 2:3]
+    xn = Xc[:, :2] / z
+    if dist:
+        r2 = (xn * xn).sum(1, keepdims=True)
+        xn = xn * (1 + dist[0] * r2)
+    return xn * K[0, 0] + K[:2, 2], Xc[:, 2]
+
+
+def _visible(cam: Camera, model: ModelSamples, size, margin=2.0):
+    W, H = size
+    Xc = model.points @ cam.R.T + cam.t
+    front = Xc[:, 2] > 0.5
+    px = np.full((len(Xc), 2), np.nan)
+    px[front] = cam.project(model.points[front])
+    with np.errstate(invalid="ignore"):
+        inside = front & (px[:, 0] >= margin) & (px[:, 0] <= W - 1 - margin) & (px[:, 1] >= margin) & (px[:, 1] <= H - 1 - margin)
+    return inside, px
+
+
+def refine_camera(
+    camera: Camera,
+    index: LineIndex,
+    size: tuple[int, int],
+    model: ModelSamples,
+    *,
+    center: np.ndarray | None = None,
+    estimate_k1: bool = False,
+    radii=(30.0, 15.0, 6.0, 3.0),
+    max_points: int = 700,
+    staged: bool = True,
+) -> Refinement:
+    """Refine a camera against detected line pixels.
+
+    Parameters
+    ----------
+    camera : Camera, initial estimate (its principal point is kept)
+    index : LineIndex over the frame's line pixels
+    size : (width, height), pixels
+    model : ModelSamples
+    center : (3,) metres, optional fixed camera centre (tripod): then only pan,
+        tilt, roll, f (and k1) are estimated
+    estimate_k1 : bool, also estimate one radial distortion coefficient
+    radii : matching radii (px) of the successive re-association rounds
+    max_points : at most this many model points are used per round (evenly thinned)
+    staged : without a fixed ``center``, first refine rotation and f about the
+        initial centre, then the full pose
+
+    Returns
+    -------
+    Refinement
+
+    Raises
+    ------
+    ValueError
+        If fewer than 8 model points are in view or matched.
+    """
+    if center is None and staged:
+        # rotation and focal first (well conditioned), then the full pose
+        try:
+            first = refine_camera(camera, index, size, model, center=camera.center, estimate_k1=False, radii=radii[:2], max_points=max_points, staged=False)
+            camera = first.camera
+        except ValueError:
+            pass
+        radii = radii[1:]
+    pp = camera.K[:2, 2].copy()
+    if center is not None:
+        c0 = np.asarray(center, dtype=np.float64)
+        cam0 = Camera(K=camera.K, R=camera.R, t=-camera.R @ c0, dist=camera.dist)
+    else:
+        c0 = camera.center
+        cam0 = camera
+    k1_0 = cam0.dist[0] if cam0.dist else 0.0
+    names = ["rx", "ry", "rz"] + ([] if center is not None else ["cx", "cy", "cz"]) + ["logf"] + (["k1"] if estimate_k1 else [])
+    i_f = names.index("logf")
+    i_k = names.index("k1") if estimate_k1 else None
+    free = center is None
+    # state: rotation (left perturbation about R_ref, reset every round), centre, log f, k1
+    R_ref = cam0.R
+    C_cur = c0.copy()
+    logf = float(np.log(cam0.focal))
+    k1_cur = float(k1_0)
+
+    def unpack(th):
+        R = cv2.Rodrigues(th[:3])[0] @ R_ref
+        C = th[3:6] if free else C_cur
+        return R, C, float(np.exp(th[i_f])), (float(th[i_k]) if estimate_k1 else k1_cur)
+
+    def theta0():
+        th = np.zeros(len(names))
+        if free:
+            th[3:6] = C_cur
+        th[i_f] = logf
+        if estimate_k1:
+            th[i_k] = k1_cur
+        return th
+
+    def camera_of(R, C, f, k1) -> Camera:
+        K = np.array([[f, 0, pp[0]], [0, f, pp[1]], [0, 0, 1.0]])
+        return Camera(K=K, R=R, t=-R @ C, dist=(k1,) if k1 else ())
+
+    cam = cam0
+    res_fin = None
+    for radius in radii:
+        inside, px = _visible(cam, model, size)
+        idx = np.flatnonzero(inside)
+        if len(idx) < 8:
+            raise ValueError("fewer than 8 pitch-marking points in view")
+        if len(idx) > max_points:
+            idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(int)]
+        d, q = index.nearest(px[idx], radius)
+        ok = np.isfinite(d)
+        if ok.sum() < 8:
+            raise ValueError("fewer than 8 pitch-marking points matched to detected lines")
+        X = model.points[idx[ok]]
+        Tg = model.tangents[idx[ok]]
+        Q = q[ok]
+        # image normals of the projected markings at the current estimate
+        p_a = cam.project(X)
+        p_b = cam.project(X + 0.05 * Tg)
+        tg = p_b - p_a
+        nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
+        R_ref = cam.R
+
+        def fun(th):
+            R, C, f, k1 = unpack(th)
+            Xc = (X - C) @ R.T
+            z = Xc[:, 2]
+            xn = Xc[:, :2] / z[:, None]
+            if k1:
+                xn = xn * (1 + k1 * (xn * xn).sum(1, keepdims=True))
+            r = ((f * xn + pp - Q) * nrm).sum(1)
+            r[z <= 0] = 50.0
+            return r
+
+        def jac(th):
+            R, C, f, k1 = unpack(th)
+            Xc = (X - C) @ R.T
+            x, y, z = Xc[:, 0], Xc[:, 1], Xc[:, 2]
+            iz = 1.0 / z
+            u, v = x * iz, y * iz
+            r2 = u * u + v * v
+            s = 1 + k1 * r2
+            # d(pixel)/d(u, v) with distortion, then contracted with the normal
+            a = f * (s + 2 * k1 * u * u)
+            b = f * (2 * k1 * u * v)
+            c = f * (s + 2 * k1 * v * v)
+            gu = nrm[:, 0] * a + nrm[:, 1] * b  # dr/du
+            gv = nrm[:, 0] * b + nrm[:, 1] * c  # dr/dv
+            # dr/dXc = gu * du/dXc + gv * dv/dXc
+            dX = np.column_stack([gu * iz, gv * iz, -(gu * u + gv * v) * iz])
+            J = np.empty((len(X), len(names)))
+            # left rotation perturbation: dXc/domega = -[Xc]x
+            J[:, 0] = dX[:, 2] * y - dX[:, 1] * z
+            J[:, 1] = dX[:, 0] * z - dX[:, 2] * x
+            J[:, 2] = dX[:, 1] * x - dX[:, 0] * y
+            if free:
+                J[:, 3:6] = -(dX @ R)
+            xd_u = u * s
+            xd_v = v * s
+            J[:, i_f] = f * (nrm[:, 0] * xd_u + nrm[:, 1] * xd_v)
+            if estimate_k1:
+                J[:, i_k] = f * r2 * (nrm[:, 0] * u + nrm[:, 1] * v)
+            return J
+
+        res_fin = scipy.optimize.least_squares(fun, theta0(), jac=jac, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=30)
+        R, C_cur, f, k1_cur = unpack(res_fin.x)
+        C_cur = np.array(C_cur, dtype=np.float64)
+        logf = float(np.log(f))
+        cam = camera_of(R, C_cur, f, k1_cur)
+    # confidence: support of the in-view model after refinement
+    inside, px = _visible(cam, model, size)
+    n_vis = int(inside.sum())
+    d, _ = index.nearest(px[inside], 2.5) if n_vis else (np.zeros(0), None)
+    n_in = int(np.isfinite(d).sum())
+    conf = n_in / n_vis if n_vis else 0.0
+    r = res_fin.fun
+    inl = np.abs(r) < 2.5
+    rms = float(np.sqrt(np.mean(r[inl] ** 2))) if inl.any() else float("inf")
+    J = res_fin.jac[inl] if inl.any() else res_fin.jac
+    try:
+        cov = np.linalg.pinv(J.T @ J) * max(rms, 0.3) ** 2
+    except np.linalg.LinAlgError:
+        cov = np.full((len(names), len(names)), np.inf)
+    return Refinement(camera=cam, confidence=float(conf), rms=rms, n_visible=n_vis, n_inliers=n_in, covariance=cov, params=tuple(names))
+
+
+# ---------------------------------------------------------------------------
+# initialiser from line correspondences (penalty-area views, stills)
+def _vp_family(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5) -> tuple[np.ndarray | None, list[int]]:
+    """The vanishing point shared by the most lines (pairwise intersections as
+    hypotheses); returns (point (3,), inlier indices)."""
+    best_v, best_in = None, []
+    n = len(L)
+    tol = np.sin(np.radians(tol_deg))
+    for a in range(n):
+        for b in range(a + 1, n):
+            v = np.cross(L[a], L[b])
+            if np.linalg.norm(v) < 1e-12:
+                continue
+            v = v / np.linalg.norm(v)
+            inl = []
+            for k in range(n):
+                # direction from the line's midpoint to v versus the line's direction
+                d_line = np.array([L[k][1], -L[k][0]])
+                to_v = v[:2] - v[2] * mids[k]
+                nv = np.linalg.norm(to_v)
+                if nv < 1e-12 or abs(d_line[0] * to_v[1] - d_line[1] * to_v[0]) / nv <= tol:
+                    inl.append(k)
+            if len(inl) > len(best_in):
+                best_v, best_in = v, inl
+    return best_v, best_in
+
+
+def cameras_from_line_hypotheses(
+    lines: list[np.ndarray],
+    size: tuple[int, int],
+    principal_point,
+    pitch: PitchModel | None = None,
+    *,
+    midpoints: np.ndarray | None = None,
+    max_family: tuple[int, int] = (3, 4),
+) -> list[Camera]:
+    """Candidate cameras from detected straight lines alone.
+
+    The lines are grouped by their two dominant vanishing points (the pitch's
+    two line directions). Lines parallel to the touchlines look nearly
+    horizontal from the main camera and are ordered near to far (bottom to
+    top); lines parallel to the goal lines are ordered left to right. Ordered
+    assignments of two or more lines of each family to the model's lines of
+    either half give homographies (normalised DLT from lines) and, with the
+    known principal point, cameras. The caller scores them (e.g. by refinement).
+
+    Parameters
+    ----------
+    lines : list of (3,) image lines (pixels), longest first
+    size : (width, height)
+    principal_point : (2,) pixels
+    pitch : PitchModel
+    midpoints : (N, 2) midpoints of the detected segments (pixels); default: the
+        foot of the perpendicular from the image centre
+    max_family : most lines of each family used
+
+    Returns
+    -------
+    list of Camera (possibly empty): valid ones only (above the pitch, behind the
+    near touchline, plausible focal length).
+    """
+    pitch = pitch or PitchModel()
+    W, H = size
+    L = [normalize_line(np.asarray(l, float)) for l in lines]
+    if len(L) < 4:
+        return []
+    c = np.array([W / 2, H / 2])
+    if midpoints is None:
+        midpoints = np.array([c - (l[:2] @ c + l[2]) * l[:2] for l in L])
+    mids = np.asarray(midpoints, float)
+    v1, in1 = _vp_family(L, mids)
+    rest = [k for k in range(len(L)) if k not in in1]
+    if v1 is None or len(in1) < 2 or len(rest) < 2:
+        return []
+    v2, in2r = _vp_family([L[k] for k in rest], mids[rest])
+    in2 = [rest[k] for k in in2r]
+    if len(in2) < 2:
+        return []
+    fams = []
+    for idx in (in1, in2):
+        ang = np.degrees(np.arctan2(-np.array([L[k][0] for k in idx]), np.array([L[k][1] for k in idx])))  # line angle
+        ang = (ang + 90) % 180 - 90
+        fams.append((idx, float(np.median(np.abs(ang)))))
+    # "along" (parallel to X) = the flatter family in the image
+    (along_idx, _), (across_idx, _) = sorted(fams, key=lambda f: f[1])
+    along_idx = along_idx[: max_family[1]]
+    across_idx = across_idx[: max_family[0]]
+    # order: along lines bottom -> top (near -> far), across lines left -> right
+    along_idx = sorted(along_idx, key=lambda k: -(-(L[k][0] * c[0] + L[k][2]) / L[k][1]) if abs(L[k][1]) > 1e-9 else 0.0)
+    across_idx = sorted(across_idx, key=lambda k: -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else 0.0)
+    half_len = pitch.length / 2
+    cams = []
+    for side in ("left", "right"):
+        across = [pitch["halfway_line"], pitch[f"penalty_area_{side}_front"], pitch[f"goal_area_{side}_front"], pitch[f"goal_line_{side}"]]
+        if side == "left":
+            across = across[::-1]
+        along = [pitch["touchline_near"], pitch[f"penalty_area_{side}_near"], pitch[f"goal_area_{side}_near"], pitch[f"goal_area_{side}_far"], pitch[f"penalty_area_{side}_far"], pitch["touchline_far"]]
+        for na in range(min(len(across_idx), 4), 1, -1):
+            for nb in range(min(len(along_idx), 6), 1, -1):
+                if na + nb < 4:
+                    continue
+                ia = across_idx[:na]
+                ib = along_idx[:nb]
+                for ma in combinations(range(len(across)), na):
+                    for mb in combinations(range(len(along)), nb):
+                        src = [across[m].line for m in ma] + [along[m].line for m in mb]
+                        dst = [L[k] for k in ia] + [L[k] for k in ib]
+                        try:
+                            Hm = homography_from_lines(np.array(src), np.array(dst))
+                            cam = camera_from_homography(Hm, principal_point)
+                        except ValueError:
+                            continue
+                        C = cam.center
+                        if not (C[1] < -pitch.width / 2 - 3 and 3 < C[2] < 80 and abs(C[0]) < half_len and 0.3 * W < cam.focal < 12 * W):
+                            continue
+                        cams.append(cam)
+    return cams

@@ -1,0 +1,406 @@
+"""Per-frame camera solving with temporal filtering: the pipeline's solver stage.
+
+For every frame the :class:`Tracker` refines the camera predicted by a Kalman
+filter (filterpy) against the detected line pixels; when there is no usable
+prediction (start, shot cut, lost track) it initialises from the centre
+circle's pole-polar relations or, with the circle out of view, from line
+correspondences, and keeps the candidate that explains the most markings.
+
+Broadcast tripod model: the camera centre of a broadcast camera is fixed.
+It is estimated from the confident frames' full-pose refinements (those with
+a small centre covariance), then frozen, after which only pan, tilt, roll and
+f (and k1 if the lens shows distortion) are solved: much better conditioned,
+above all at long focal lengths where position and zoom trade off. If a frame
+is explained well by a free pose but not with the frozen centre, the centre
+assumption is broken (another camera after a cut) and the estimate restarts.
+
+Temporal model: a constant-velocity Kalman filter over (pan, tilt, roll,
+log f) and their rates; the measurement noise comes from the refinement's
+covariance; Mahalanobis gating rejects outliers; a shot cut (abrupt change of
+the frame, or no pitch) resets it. Live mode (``lag=0``) is causal and emits
+each frame's estimate at once; offline mode (``lag=N``) runs an RTS smoother
+over a sliding window and emits estimates N frames late, so memory stays
+bounded (only camera parameters are kept).
+
+Statuses: "ok" (measured this frame), "tracked" (carried by the filter
+through a frame without an accepted measurement, at most ``max_coast``
+frames), "lost".
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from filterpy.common import Q_discrete_white_noise
+from filterpy.kalman import KalmanFilter
+from scipy.linalg import block_diag
+
+from arstream.estimate import CameraEstimate
+from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, refine_camera, solve_from_circle
+from geometry.camera import PTZ, Camera, camera_from_ptz, ptz_from_camera
+from geometry.conics import intersect_line_conic
+from geometry.pitch import PitchModel
+
+__all__ = ["Tracker", "TrackerConfig", "initialise_camera"]
+
+
+@dataclass
+class TrackerConfig:
+    """Tuning of the tracker (defaults suit 25-50 fps broadcast video)."""
+
+    accept: float = 0.55  # least support share to accept a refinement as a measurement
+    init_accept: float = 0.6  # least support share to accept an initialisation
+    max_coast: int = 12  # frames carried by the filter without a measurement
+    gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
+    cut_threshold: float = 28.0  # mean absolute thumbnail change (grey levels) that signals a cut
+    centre_frames: int = 5  # confident free-pose frames before the tripod centre is frozen
+    centre_sigma: float = 0.6  # largest centre std (m) of a frame used for the tripod centre
+    centre_break: float = 3.0  # metres: a free pose this far from the tripod centre breaks it
+    accel_pan: float = 4.0  # process noise: angular acceleration (rad/s^2) of pan and tilt
+    accel_roll: float = 0.05
+    accel_logf: float = 2.0  # zoom acceleration (1/s^2 in log f)
+
+
+def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
+    """(pan, tilt, roll, log f) of ``cam`` about ``centre``."""
+    _, p = ptz_from_camera(Camera(K=cam.K, R=cam.R, t=-cam.R @ centre, dist=cam.dist))
+    return np.array([p.pan, p.tilt, p.roll, np.log(p.f)])
+
+
+def _wrap(a: float) -> float:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False) -> Refinement | None:
+    """A camera for a frame without temporal help (the initialiser).
+
+    Tries, in order: the closed-form pole-polar solution from each candidate
+    centre-circle ellipse with each detected line that crosses it (the
+    halfway line); then homographies from line correspondences (penalty-area
+    views). Every candidate is refined against all markings; the one with the
+    most support wins. Returns None when nothing is found.
+    """
+    W, H = size
+    cands: list[Camera] = []
+    lines = list(getattr(detections, "lines", []) or [])
+    for ell in list(getattr(detections, "ellipses", []) or [])[:2]:
+        E = ell.conic
+        crossing = []
+        for dl in lines[:8]:
+            try:
+                intersect_line_conic(E, dl.line)
+            except ValueError:
+                continue
+            crossing.append(dl)
+        for dl in crossing[:3]:
+            try:
+                sols = solve_from_circle(E, dl.line, principal_point, image_width=W)
+            except ValueError:
+                continue
+            cands.extend(s.camera for s in sols[:2])
+    best: Refinement | None = None
+
+    def consider(cam: Camera, cheap_first: bool) -> None:
+        nonlocal best
+        try:
+            r = refine_camera(cam, index, size, model, center=centre, estimate_k1=estimate_k1)
+        except ValueError:
+            return
+        if best is None or r.confidence > best.confidence + 1e-3 or (abs(r.confidence - best.confidence) <= 1e-3 and r.rms < best.rms):
+            best = r
+
+    for cam in cands:
+        consider(cam, False)
+    if best is not None and best.confidence >= 0.75:
+        return best
+    # line correspondences: score every hypothesis by its unrefined support, refine the best few
+    hyps = cameras_from_line_hypotheses([dl.line for dl in lines[:10]], size, principal_point, pitch)
+    if hyps:
+        scored = []
+        for cam in hyps:
+            inside = _support(cam, index, size, model)
+            scored.append((inside, cam))
+        scored.sort(key=lambda s: -s[0])
+        for _, cam in scored[:6]:
+            consider(cam, True)
+    return best
+
+
+def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
+    from arstream.solve import _visible
+
+    inside, px = _visible(cam, model, size)
+    n = int(inside.sum())
+    if n < 20:
+        return 0.0
+    d, _ = index.nearest(px[inside][:: max(n // 300, 1)], radius)
+    return float(np.isfinite(d).mean())
+
+
+class Tracker:
+    """The solver stage: detections in, camera estimates out.
+
+    Parameters
+    ----------
+    width, height : frame size (pixels)
+    fps : frame rate (sets the filter's time step)
+    lag : 0 for live (causal) output; N > 0 for an RTS smoother over a sliding
+        window, estimates emitted N frames late
+    pitch : PitchModel (default 105 x 68 m)
+    principal_point : (2,) pixels; default the image centre
+    config : TrackerConfig
+    """
+
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None):
+        if width <= 0 or height <= 0:
+            raise ValueError(f"invalid frame size {width}x{height}")
+        if lag < 0:
+            raise ValueError(f"lag must be >= 0, got {lag}")
+        self.size = (int(width), int(height))
+        self.fps = float(fps)
+        self.lag = int(lag)
+        self.pitch = pitch or PitchModel()
+        self.pp = np.array(principal_point if principal_point is not None else ((width - 1) / 2, (height - 1) / 2), dtype=np.float64)
+        self.cfg = config or TrackerConfig()
+        self.model = ModelSamples.from_pitch(self.pitch, 0.5)
+        self.centre: np.ndarray | None = None
+        self._centres: list[np.ndarray] = []
+        self._centre_cur: np.ndarray | None = None
+        self.k1: float | None = None  # None: unknown yet; 0: no distortion
+        self._k1_samples: list[float] = []
+        self._prev_thumb: np.ndarray | None = None
+        self._kf: KalmanFilter | None = None
+        self._coast = 0
+        self._last_f = None
+        self._window: deque = deque()
+        self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0}
+
+    # --- filter ----------------------------------------------------------------
+    def _new_filter(self, z: np.ndarray, Rz: np.ndarray) -> KalmanFilter:
+        dt = 1.0 / self.fps
+        kf = KalmanFilter(dim_x=8, dim_z=4)
+        F1 = np.array([[1.0, dt], [0.0, 1.0]])
+        kf.F = block_diag(F1, F1, F1, F1)
+        kf.H = np.zeros((4, 8))
+        for k in range(4):
+            kf.H[k, 2 * k] = 1.0
+        c = self.cfg
+        kf.Q = block_diag(
+            Q_discrete_white_noise(2, dt, c.accel_pan**2),
+            Q_discrete_white_noise(2, dt, c.accel_pan**2),
+            Q_discrete_white_noise(2, dt, c.accel_roll**2),
+            Q_discrete_white_noise(2, dt, c.accel_logf**2),
+        )
+        kf.x = np.zeros((8, 1))
+        kf.x[0::2, 0] = z
+        kf.P = np.diag([Rz[0, 0], 0.5, Rz[1, 1], 0.5, Rz[2, 2], 0.05, Rz[3, 3], 0.5])
+        kf.R = Rz
+        return kf
+
+    def _camera_from_state(self, x: np.ndarray, centre: np.ndarray) -> Camera:
+        x = np.asarray(x).ravel()
+        f = float(np.exp(x[6]))
+        k1 = self._k1_for(f)
+        return camera_from_ptz(centre, PTZ(pan=float(x[0]), tilt=float(x[2]), roll=float(x[4]), f=f), self.pp, dist=(k1,) if k1 else ())
+
+    def _k1_for(self, f: float) -> float:
+        if not self.k1:
+            return 0.0
+        # a zoom lens bends less as it zooms in: scale with 1/f from the last estimate
+        return float(self.k1 * (self._k1_f / f)) if self._k1_f else float(self.k1)
+
+    def _measurement_noise(self, r: Refinement) -> np.ndarray:
+        names = list(r.params)
+        cov = r.covariance
+        ang = [names.index(n) for n in ("rx", "ry", "rz")]
+        va = float(np.nanmean(np.diag(cov)[ang])) if np.all(np.isfinite(np.diag(cov)[ang])) else 1e-4
+        vf = float(cov[names.index("logf"), names.index("logf")]) if np.isfinite(cov[names.index("logf"), names.index("logf")]) else 1e-4
+        va = max(va, 1e-9) * 4.0
+        vf = max(vf, 1e-9) * 4.0
+        return np.diag([va, va, va, vf])
+
+    # --- public API --------------------------------------------------------------
+    def reset(self, *, keep_centre: bool = True) -> None:
+        """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
+        self._kf = None
+        self._coast = 0
+        if not keep_centre:
+            self.centre = None
+            self._centres.clear()
+
+    def process(self, index: int, pts: float, image: np.ndarray | None, detections) -> list[CameraEstimate]:
+        """Solve frame ``index``; returns the estimates that became final (one per call
+        in live mode, lagging by ``lag`` frames in offline mode)."""
+        est = self._solve(index, pts, image, detections)
+        self.stats[est.status] += 1
+        if self.lag == 0:
+            return [est]
+        self._window.append(est)
+        out = []
+        while len(self._window) > self.lag:
+            out.append(self._smooth_pop())
+        return out
+
+    def flush(self) -> list[CameraEstimate]:
+        """Emit the estimates still held by the offline smoother."""
+        out = []
+        while self._window:
+            out.append(self._smooth_pop())
+        return out
+
+    # --- offline smoothing ---------------------------------------------------------
+    def _smooth_pop(self) -> CameraEstimate:
+        """Pop the oldest estimate of the window, smoothed with the RTS smoother over the
+        run of filtered frames that starts with it (until a reset or the window's end)."""
+        first = self._window[0]
+        run = []
+        for e in self._window:
+            if "kf" not in e.info or e.info["kf"][4] != first.info.get("kf", (None,) * 5)[4]:
+                break
+            run.append(e)
+        est = self._window.popleft()
+        if len(run) >= 2 and "kf" in est.info:
+            Xs = np.array([e.info["kf"][0] for e in run])
+            Ps = np.array([e.info["kf"][1] for e in run])
+            Fs = np.array([e.info["kf"][2] for e in run])
+            Qs = np.array([e.info["kf"][3] for e in run])
+            xs, _, _, _ = self._smoother.rts_smoother(Xs, Ps, Fs, Qs)
+            centre = est.info["centre"]
+            cam = self._camera_from_state(xs[0], centre)
+            est = CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, {k: v for k, v in est.info.items() if k != "kf"})
+        else:
+            est.info.pop("kf", None)
+        return est
+
+    # --- the per-frame logic ---------------------------------------------------------
+    def _is_cut(self, image) -> bool:
+        if image is None:
+            return False
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        thumb = cv2.resize(gray, (64, 36), interpolation=cv2.INTER_AREA).astype(np.float32)
+        prev, self._prev_thumb = self._prev_thumb, thumb
+        return prev is not None and float(np.mean(np.abs(thumb - prev))) > self.cfg.cut_threshold
+
+    def _solve(self, index: int, pts: float, image, det) -> CameraEstimate:
+        cut = self._is_cut(image)
+        if cut:
+            self.stats["cuts"] += 1
+            self.reset()
+        if det is None or not getattr(det, "pitch_visible", True) or len(det.line_points) < 30:
+            self.reset()
+            return CameraEstimate.lost(index, pts, reason="no pitch")
+        lidx = LineIndex(det.line_points)
+        kf = self._kf
+        pred_cam = None
+        meas: Refinement | None = None
+        centre = self.centre if self.centre is not None else self._centre_cur
+        if kf is not None:
+            kf.predict()
+            pred_cam = self._camera_from_state(kf.x, centre)
+            try:
+                r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(10.0, 4.0, 2.5))
+                if r.confidence >= self.cfg.accept:
+                    meas = r
+            except ValueError:
+                pass
+        source = "track"
+        if meas is None:
+            r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False)
+            if r is not None and r.confidence >= self.cfg.init_accept:
+                meas = r
+                source = "init"
+                self.stats["inits"] += 1
+                if self.centre is not None and np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
+                    # is it the same tripod? try the frozen centre
+                    try:
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1())
+                    except ValueError:
+                        rc = None
+                    if rc is not None and rc.confidence >= r.confidence - 0.05:
+                        meas = rc
+                    else:
+                        self.reset(keep_centre=False)  # another camera
+                elif self.centre is not None:
+                    try:
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1())
+                        if rc.confidence >= r.confidence - 0.05:
+                            meas = rc
+                    except ValueError:
+                        pass
+                if self._kf is not None and pred_cam is not None:
+                    self._kf = None  # re-anchored: restart the filter from this measurement
+        if meas is None:
+            if self._kf is not None and self._coast < self.cfg.max_coast and pred_cam is not None:
+                self._coast += 1
+                return self._estimate(index, pts, "tracked", pred_cam, 0.3 * (1 - self._coast / (self.cfg.max_coast + 1)), centre)
+            self.reset()
+            return CameraEstimate.lost(index, pts, reason="no camera")
+        self._learn(meas)
+        centre = self.centre if self.centre is not None else meas.camera.center
+        self._centre_cur = centre
+        z = _ptz_vector(meas.camera, centre)
+        Rz = self._measurement_noise(meas)
+        if self._kf is None:
+            self._kf = self._new_filter(z, Rz)
+            self._kf_id = index
+        else:
+            kf = self._kf
+            y = z - (kf.H @ kf.x).ravel()
+            y[0] = _wrap(y[0])
+            S = kf.H @ kf.P @ kf.H.T + Rz
+            d2 = float(y @ np.linalg.solve(S, y))
+            if d2 > self.cfg.gate and source == "track":
+                # an outlier against the motion model: carry the prediction instead
+                self.stats["gated"] += 1
+                self._coast += 1
+                if self._coast > self.cfg.max_coast:
+                    self.reset()
+                    return CameraEstimate.lost(index, pts, reason="gated")
+                return self._estimate(index, pts, "tracked", pred_cam, 0.3, centre)
+            kf.update(z, R=Rz)
+        self._coast = 0
+        if self.centre is None:
+            # no tripod centre yet: the filter's state (angles about each frame's own,
+            # poorly determined centre) is not a camera to output; the measurement is
+            cam = meas.camera
+        else:
+            cam = self._camera_from_state(self._kf.x, centre)
+        return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
+
+    def _estimate(self, index, pts, status, cam, conf, centre, **info) -> CameraEstimate:
+        info["centre"] = np.array(centre, dtype=np.float64)
+        if self.lag and self._kf is not None:
+            kf = self._kf
+            info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
+        return CameraEstimate(index, pts, status, cam, float(conf), info)
+
+    def _want_k1(self) -> bool:
+        return self.k1 is None or self.k1 != 0.0
+
+    def _learn(self, r: Refinement) -> None:
+        """Update the tripod centre and the lens distortion from a confident measurement."""
+        names = list(r.params)
+        if self.centre is None and "cx" in names and r.confidence >= 0.7:
+            ci = [names.index(n) for n in ("cx", "cy", "cz")]
+            sd = np.sqrt(np.maximum(np.diag(r.covariance)[ci], 0))
+            if np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma:
+                self._centres.append(r.camera.center)
+                if len(self._centres) >= self.cfg.centre_frames:
+                    self.centre = np.median(np.array(self._centres), axis=0)
+                    self._kf = None  # restart the filter about the frozen centre
+        if self.k1 != 0.0 and r.camera.dist and r.n_visible >= 250 and r.confidence >= 0.7:
+            # k1 scales like 1/f for a zoom lens: keep k1 * f samples
+            self._k1_samples.append(r.camera.dist[0] * r.camera.focal)
+            if len(self._k1_samples) >= 5:
+                med = float(np.median(self._k1_samples[-15:]))
+                if self.k1 is None and abs(med / r.camera.focal) < 0.004:
+                    self.k1 = 0.0  # no measurable distortion: stop estimating it
+                else:
+                    self.k1 = med / r.camera.focal
+                    self._k1_f = r.camera.focal
+
+    _k1_f: float | None = None
