@@ -366,14 +366,13 @@ class Tracker:
         if self.centre is None:
             # no tripod centre yet: the filter's state (angles about each frame's own,
             # poorly determined centre) is not a camera to output; the measurement is
-            cam = meas.camera
-        else:
-            cam = self._camera_from_state(self._kf.x, centre)
+            return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
+        cam = self._camera_from_state(self._kf.x, centre)
         return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
 
-    def _estimate(self, index, pts, status, cam, conf, centre, **info) -> CameraEstimate:
+    def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         info["centre"] = np.array(centre, dtype=np.float64)
-        if self.lag and self._kf is not None:
+        if self.lag and self._kf is not None and filtered:
             kf = self._kf
             info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
         return CameraEstimate(index, pts, status, cam, float(conf), info)
