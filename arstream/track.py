@@ -51,7 +51,7 @@ __all__ = ["Tracker", "TrackerConfig", "initialise_camera"]
 class TrackerConfig:
     """Tuning of the tracker (defaults suit 25-50 fps broadcast video)."""
 
-    accept: float = 0.55  # least support share to accept a refinement as a measurement
+    accept: float = 0.7  # least support share to accept a refinement as a measurement
     init_accept: float = 0.6  # least support share to accept an initialisation
     max_coast: int = 12  # frames carried by the filter without a measurement
     gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
@@ -301,12 +301,18 @@ class Tracker:
         if kf is not None:
             kf.predict()
             pred_cam = self._camera_from_state(kf.x, centre)
-            try:
-                r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(10.0, 4.0, 2.5))
-                if r.confidence >= self.cfg.accept:
+            for radii in ((8.0, 2.5), (25.0, 10.0, 4.0, 2.5)):
+                # a close prediction needs two short rounds; a fast pan may need a wider search
+                try:
+                    r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
+                except ValueError:
+                    continue
+                if meas is None or r.confidence > meas.confidence:
                     meas = r
-            except ValueError:
-                pass
+                if meas.confidence >= 0.85:
+                    break
+            if meas is not None and meas.confidence < self.cfg.accept:
+                meas = None
         source = "track"
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False)

@@ -163,13 +163,21 @@ class Camera:
         """Project world points (N, 3) to pixels (N, 2), applying ``dist``.
 
         Points behind the camera (z <= 0) come out as NaN; use :meth:`in_front`.
+        So do points beyond the radius where the distortion polynomial stops
+        growing (``d r_d / d r <= 0``): there the model folds far-off points back
+        into the image, which no lens does.
         """
         Xc = self.to_camera(X)
         z = Xc[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             xn = Xc[:, :2] / np.where(z > 0, z, np.nan)[:, None]
         if self.dist:
+            r2 = (xn * xn).sum(axis=1)
+            slope = np.ones_like(r2)
+            for k, c in enumerate(self.dist, start=1):
+                slope = slope + (2 * k + 1) * c * r2**k
             xn = distort_normalized(xn, self.dist)
+            xn[~(slope > 0)] = np.nan
         return xn @ self.K[:2, :2].T + self.K[:2, 2]
 
     def project_pitch(self, XY) -> np.ndarray:
