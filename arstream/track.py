@@ -74,14 +74,17 @@ def _wrap(a: float) -> float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
-def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False) -> Refinement | None:
+def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
     """A camera for a frame without temporal help (the initialiser).
 
     Tries, in order: the closed-form pole-polar solution from each candidate
     centre-circle ellipse with each detected line that crosses it (the
     halfway line); then homographies from line correspondences (penalty-area
     views). Every candidate is refined against all markings; the one with the
-    most support wins. Returns None when nothing is found.
+    most support wins — with a ``prior`` camera (the filter's prediction),
+    candidates far from it (centre, focal length) are penalised, since with few
+    markings in view (long focal lengths) several cameras explain them equally
+    well. Returns None when nothing is found.
     """
     W, H = size
     cands: list[Camera] = []
@@ -103,13 +106,20 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
             cands.extend(s.camera for s in sols[:2])
     best: Refinement | None = None
 
+    def merit(r: Refinement) -> float:
+        m = r.confidence - 1e-3 * r.rms
+        if prior is not None:
+            m -= 0.15 * min(1.0, np.linalg.norm(r.camera.center - prior.center) / 10.0)
+            m -= 0.15 * min(1.0, abs(np.log(r.camera.focal / prior.focal)) / 0.2)
+        return m
+
     def consider(cam: Camera, cheap_first: bool) -> None:
         nonlocal best
         try:
             r = refine_camera(cam, index, size, model, center=centre, estimate_k1=estimate_k1)
         except ValueError:
             return
-        if best is None or r.confidence > best.confidence + 1e-3 or (abs(r.confidence - best.confidence) <= 1e-3 and r.rms < best.rms):
+        if best is None or merit(r) > merit(best):
             best = r
 
     for cam in cands:
@@ -315,7 +325,7 @@ class Tracker:
                 meas = None
         source = "track"
         if meas is None:
-            r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False)
+            r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
