@@ -81,7 +81,11 @@ class VideoSink:
         self.stream.width = width + (width % 2)
         self.stream.height = height + (height % 2)
         self.stream.pix_fmt = "yuv420p"
-        self.stream.time_base = time_base or Fraction(1, 1) / self.rate
+        # Frame timestamps are in ``self.time_base`` (the input's, to keep its timing
+        # exactly); PyAV rebases them to the encoder's and then the muxer's time base.
+        self.time_base = Fraction(time_base) if time_base else Fraction(1, 1) / self.rate
+        self.stream.time_base = self.time_base
+        self.stream.codec_context.time_base = self.time_base
         self.stream.options = {"crf": str(crf), "preset": preset}
         self.stream.codec_context.thread_count = threads
         self.width, self.height = width, height
@@ -89,6 +93,8 @@ class VideoSink:
         if audio_from is not None:
             self.audio_out = self.container.add_stream_from_template(audio_from)
         self.frames_written = 0
+        self.audio_packets = 0
+        self._last_pts = None
         self._closed = False
 
     def __enter__(self) -> "VideoSink":
@@ -97,18 +103,39 @@ class VideoSink:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def write(self, image: np.ndarray, pts: float | None = None) -> None:
-        """Encode one BGR uint8 (H, W, 3) frame; ``pts`` in seconds (default: index / rate)."""
+    def write(self, image: np.ndarray, pts: float | None = None, *, ts: int | None = None) -> None:
+        """Encode one BGR uint8 (H, W, 3) frame.
+
+        ``pts`` in seconds (default: index / rate), or ``ts`` in units of the
+        sink's ``time_base`` (exact; wins over ``pts``).
+        """
         if image.shape[:2] != (self.height, self.width):
             raise ValueError(f"frame is {image.shape[1]}x{image.shape[0]}, sink expects {self.width}x{self.height}")
         if (self.stream.width, self.stream.height) != (self.width, self.height):
             image = np.pad(image, ((0, self.stream.height - self.height), (0, self.stream.width - self.width), (0, 0)), mode="edge")
         vf = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
-        tb = self.stream.time_base
-        if pts is None:
+        self._encode(vf, pts, ts)
+
+    def write_yuv(self, yuv: np.ndarray, pts: float | None = None, *, ts: int | None = None) -> None:
+        """Encode one I420 frame ((H * 3 / 2, W) uint8, see :func:`arstream.source.i420_planes`).
+
+        The fast path: no colour conversion (even frame sizes only). Timing as :meth:`write`.
+        """
+        if yuv.shape != (self.height * 3 // 2, self.width) or self.width % 2 or self.height % 2:
+            raise ValueError(f"I420 buffer is {yuv.shape}, sink expects {(self.height * 3 // 2, self.width)} (even sizes only)")
+        self._encode(av.VideoFrame.from_ndarray(yuv, format="yuv420p"), pts, ts)
+
+    def _encode(self, vf, pts, ts) -> None:
+        tb = self.time_base
+        if ts is not None:
+            vf.pts = int(ts)
+        elif pts is None:
             vf.pts = int(round(self.frames_written / self.rate / tb))
         else:
             vf.pts = int(round(pts / tb))
+        if self._last_pts is not None and vf.pts <= self._last_pts:
+            vf.pts = self._last_pts + 1  # the encoder needs strictly increasing timestamps
+        self._last_pts = vf.pts
         vf.time_base = tb
         for packet in self.stream.encode(vf):
             self.container.mux(packet)
@@ -120,6 +147,7 @@ class VideoSink:
             return
         packet.stream = self.audio_out
         self.container.mux(packet)
+        self.audio_packets += 1
 
     def close(self, *, keep: bool = True) -> None:
         """Flush the encoder, write the trailer and move the file into place.

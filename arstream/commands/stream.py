@@ -1,0 +1,109 @@
+"""``arstream stream``: live mode on a file, URL or capture device, logged to rerun."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+ORDER = 50
+
+DESCRIPTION = """\
+Run the pipeline live on a file, a network stream or a capture device, with a
+causal camera filter (no look-ahead), and log everything to rerun: the input
+frame with the detected lines and ellipse, the composited output, the pitch
+and the camera in 3-D, and time series of focal length, pan, tilt, confidence
+and per-stage timings.
+
+SRC is a file, a URL FFmpeg opens (rtsp://, http://, udp://, srt://, ...), or a
+device with --format (e.g. --format v4l2 --source /dev/video0).
+"""
+
+EPILOG = """\
+rerun modes:
+  spawn             start a rerun viewer and stream to it (default)
+  save FILE.rrd     write a recording (open it later with: rerun FILE.rrd)
+  connect [URL]     stream to a running viewer (default rerun+http://127.0.0.1:9876/proxy)
+  serve             serve gRPC on --bind:--port (127.0.0.1:9876); connect a viewer
+                    with: rerun rerun+http://127.0.0.1:9876/proxy
+  none              no rerun logging
+  An unreachable viewer is a warning: processing goes on without rerun.
+
+examples:
+  arstream stream --source match.mp4 --realtime
+  arstream stream --source rtsp://camera.local/live --rerun serve --bind 0.0.0.0
+  arstream stream --source match.mp4 --rerun save out/match.rrd -o out/live.mp4
+
+exit status: 0 done; 1 processing failed or the input was damaged; 2 bad input
+or usage; 130/143 stopped by Ctrl-C/SIGTERM (outputs finalised).
+"""
+
+
+def _option(text: str) -> tuple[str, str]:
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"options look like KEY=VALUE, got {text!r}")
+    return key, value
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "stream",
+        help="live mode on a file, URL or device, logged to a rerun viewer",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--source", required=True, metavar="SRC", help="file, URL or device")
+    p.add_argument("--format", metavar="FMT", help="FFmpeg input format, e.g. v4l2, avfoundation, dshow (devices)")
+    p.add_argument("--option", action="append", type=_option, default=[], metavar="KEY=VALUE", help="FFmpeg demuxer option, e.g. rtsp_transport=tcp (repeatable)")
+    p.add_argument("--rerun", nargs="+", default=["spawn"], metavar=("MODE", "ARG"), help="spawn | save FILE.rrd | connect [URL] | serve | none (default: spawn)")
+    p.add_argument("--bind", default="127.0.0.1", metavar="ADDR", help="address for --rerun serve (default: 127.0.0.1, this machine only)")
+    p.add_argument("--port", type=int, default=9876, help="port for --rerun serve/spawn (default: 9876)")
+    p.add_argument(
+        "--realtime",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="pace to the source clock and drop frames rather than fall behind (default: on for URLs and devices, off for files)",
+    )
+    p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
+    p.add_argument("-o", "--output", metavar="OUT.mp4", help="also record the augmented video")
+    p.add_argument("--cameras-out", metavar="FILE", help="also write the cameras as JSON lines")
+    p.add_argument("--jpeg-quality", type=int, default=75, metavar="Q", help="quality of the JPEG frames sent to rerun (default: 75)")
+    p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from arstream.commands.process import _report
+    from arstream.pipeline import Interrupted, stream
+    from arstream.progress import Progress
+
+    rerun = None if args.rerun == ["none"] else args.rerun
+    bar = Progress(None, label="stream", stream=sys.stderr)
+    if args.quiet:
+        bar.enabled = False
+    try:
+        with bar:
+            summary = stream(
+                args.source,
+                rerun=rerun,
+                realtime=args.realtime,
+                scene=args.scene,
+                output=args.output,
+                cameras_out=args.cameras_out,
+                format=args.format,
+                options=dict(args.option) or None,
+                bind=args.bind,
+                port=args.port,
+                jpeg_quality=args.jpeg_quality,
+                max_frames=args.frames,
+                progress=bar.update,
+            )
+    except Interrupted as exc:
+        _report(exc.summary, args)
+        print(f"arstream: interrupted ({exc.summary.frames} frames)", file=sys.stderr)
+        return exc.exit_code
+    return _report(summary, args)
+

@@ -1,0 +1,1052 @@
+"""The streaming pipeline: decode -> detect -> track -> render -> encode.
+
+Stages
+------
+A stage is a small object with one contract (:class:`Stage`)::
+
+    process(item: Item) -> list[Item]   # the items that are now ready, in order
+    flush() -> list[Item]               # at the end of the input: whatever it still holds
+    close() -> None                     # release resources / finalise outputs
+
+Most stages return ``[item]``. The tracker stage of the offline pipeline
+holds up to ``lag`` items (a fixed-lag smoother emits each camera ``lag``
+frames late) and returns them when their estimates are final; nothing else
+buffers, so memory is flat in clip length.
+
+Threads
+-------
+``decode thread -> bounded queue -> main thread (the stages) -> bounded queue -> encode thread``.
+PyAV releases the GIL while FFmpeg decodes and x264 encodes, so decode and
+encode overlap with the Python/OpenCV/GL work of the main thread and both
+cores are used. Audio packets of the input are demuxed by the decode thread
+and handed, in order, to the encode thread, which muxes them unchanged.
+
+Fast path (DESIGN.md section 4): frames of even size stay planar YUV 4:2:0
+from decoder to encoder. BGR is made once, lazily, for the stages that ask
+for ``frame.image`` (detection); the overlay is composited straight into the
+Y, U and V planes, only inside the renderer's rectangles
+(:func:`composite_i420`); the encoder gets the I420 buffer as is.
+
+Interruption
+------------
+While :meth:`Pipeline.run` runs (in the main thread), SIGINT and SIGTERM stop
+it gracefully between frames: the frames the tracker holds are flushed,
+the encoder is drained, the container trailer written and ``cameras.jsonl``
+closed, then :class:`Interrupted` (a ``KeyboardInterrupt``) is raised with the
+signal number and the :class:`Summary`. A second signal interrupts at once
+(outputs are still closed).
+
+Live mode (``realtime=True``): the decode thread paces a file to its clock
+(a live source paces itself); the queue to the main thread holds at most one
+frame and a frame older than two frame intervals when its turn comes is
+dropped (counted in ``Summary.dropped``), so the pipeline adds at most about
+two frames of latency and never falls behind.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import importlib
+import importlib.util
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import cv2
+import numpy as np
+
+from arstream.errors import ArstreamError, InputError
+from arstream.estimate import CameraEstimate
+from arstream.sink import JsonlWriter, VideoSink
+from arstream.source import Frame, VideoSource, i420_planes
+
+__all__ = [
+    "Item",
+    "Stage",
+    "DetectStage",
+    "TrackStage",
+    "CamerasInStage",
+    "RenderStage",
+    "EncodeStage",
+    "CamerasOutStage",
+    "Pipeline",
+    "Summary",
+    "Interrupted",
+    "composite_i420",
+    "load_scene_arg",
+    "process",
+    "render_clip",
+    "stream",
+]
+
+#: Default lag (frames) of the offline smoother.
+DEFAULT_LAG = 10
+
+
+# --------------------------------------------------------------------------- items and stages
+@dataclass
+class Item:
+    """One frame travelling through the stages.
+
+    Attributes
+    ----------
+    frame : Frame (``frame.yuv`` is composited in place by the render stage)
+    detections : the detector's result, or None (missing detector, or
+        released while the frame waited for its smoothed camera)
+    matte : (H, W) uint8 grass matte (255 = pitch) for keying, or None
+    estimate : CameraEstimate once the tracker has given it
+    drawn : True when graphics were composited onto the frame
+    timings : stage name -> milliseconds spent on this frame
+    """
+
+    frame: Frame
+    detections: object | None = None
+    matte: np.ndarray | None = None
+    estimate: CameraEstimate | None = None
+    drawn: bool = False
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def index(self) -> int:
+        return self.frame.index
+
+    @property
+    def pts(self) -> float:
+        return self.frame.pts
+
+    def output_bgr(self) -> np.ndarray:
+        """The frame as it is now (composited once the render stage ran), BGR."""
+        return self.frame.image
+
+
+class Stage:
+    """Base class of the pipeline's stages (see the module docstring)."""
+
+    name = "stage"
+
+    def process(self, item: Item) -> list[Item]:
+        return [item]
+
+    def flush(self) -> list[Item]:
+        return []
+
+    def close(self) -> None:
+        pass
+
+
+def _optional(module: str, attr: str):
+    """``module.attr`` if the module exists, else None (errors inside it propagate)."""
+    if importlib.util.find_spec(module) is None:
+        return None
+    return getattr(importlib.import_module(module), attr, None)
+
+
+class DetectStage(Stage):
+    """Pitch markings and the grass matte: :class:`arstream.detect.Detector`.
+
+    Without a detector module every item passes with ``detections=None``
+    (``available`` is False).
+    """
+
+    name = "detect"
+
+    def __init__(self, width: int, height: int, detector=None):
+        if detector is None:
+            cls = _optional("arstream.detect", "Detector")
+            detector = cls(width, height) if cls is not None else None
+        self.detector = detector
+        self.available = detector is not None
+
+    def process(self, item: Item) -> list[Item]:
+        if self.detector is not None:
+            det = self.detector.process(item.frame.image)
+            item.detections = det
+            item.matte = getattr(det, "grass_mask", None)
+        return [item]
+
+
+class TrackStage(Stage):
+    """Camera of every frame: :class:`arstream.track.Tracker`.
+
+    ``lag=0`` (live, causal): one estimate per call, for this frame.
+    ``lag>0`` (offline): a fixed-lag smoother; the stage holds the items
+    whose estimates are not final yet (at most ``lag`` plus a small margin),
+    keeping only what rendering needs (the frame and a copy of the grass
+    matte). Without a tracker module every frame is "lost".
+    """
+
+    name = "track"
+
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True):
+        if tracker is None and enabled:
+            cls = _optional("arstream.track", "Tracker")
+            tracker = cls(width, height, fps=fps, lag=lag) if cls is not None else None
+        self.tracker = tracker
+        self.available = tracker is not None
+        self.lag = int(lag)
+        self.max_held = self.lag + 8
+        self.held: collections.OrderedDict[int, Item] = collections.OrderedDict()
+
+    def process(self, item: Item) -> list[Item]:
+        if self.tracker is None:
+            item.estimate = CameraEstimate.lost(item.index, item.pts, reason="no tracker")
+            return [item]
+        estimates = self.tracker.process(item.index, item.pts, item.frame.image, item.detections)
+        self.held[item.index] = item
+        out = self._release(estimates)
+        if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
+            if item.matte is not None:
+                item.matte = item.matte.copy()  # the detector reuses its buffers
+            item.detections = None
+            if item.frame.yuv is not None:
+                item.frame._image = None  # the BGR copy is rebuilt if anyone asks
+            if len(self.held) > self.max_held:
+                raise ArstreamError(f"the tracker has held {len(self.held)} frames without an estimate (lag {self.lag}); this is a bug in arstream.track")
+        return out
+
+    def _release(self, estimates: Iterable[CameraEstimate]) -> list[Item]:
+        out = []
+        for est in estimates:
+            it = self.held.pop(est.frame, None)
+            if it is None:
+                raise ArstreamError(f"the tracker returned an estimate for frame {est.frame}, which is not waiting; this is a bug in arstream.track")
+            it.estimate = est
+            out.append(it)
+        return out
+
+    def flush(self) -> list[Item]:
+        if self.tracker is None:
+            return []
+        out = self._release(self.tracker.flush())
+        for it in self.held.values():  # no estimate came: an honest "lost"
+            it.estimate = CameraEstimate.lost(it.index, it.pts, reason="no estimate at flush")
+            out.append(it)
+        self.held.clear()
+        out.sort(key=lambda it: it.index)
+        return out
+
+
+class CamerasInStage(Stage):
+    """Estimates read from a ``cameras.jsonl`` (instead of detect + track).
+
+    The file is read line by line alongside the video; frames without a record
+    are "lost". Used by :func:`render_clip` (``arstream render``).
+    """
+
+    name = "cameras"
+
+    def __init__(self, path):
+        import json
+
+        from geometry.camera import Camera
+
+        self._json, self._Camera = json, Camera
+        self.path = os.fspath(path)
+        if not os.path.exists(self.path):
+            raise InputError(f"cameras file not found: {self.path}")
+        self.f = open(self.path, encoding="utf-8")
+        self.line = 0
+        self.next_rec = self._read()
+
+    def _read(self):
+        for line in self.f:
+            self.line += 1
+            if line.strip():
+                try:
+                    return self._json.loads(line)
+                except ValueError as exc:
+                    raise InputError(f"{self.path}:{self.line}: not valid JSON ({exc})") from None
+        return None
+
+    def process(self, item: Item) -> list[Item]:
+        while self.next_rec is not None and int(self.next_rec.get("frame", -1)) < item.index:
+            self.next_rec = self._read()
+        rec = self.next_rec
+        if rec is not None and int(rec.get("frame", -1)) == item.index and rec.get("K") is not None:
+            try:
+                cam = self._Camera.from_dict(rec)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise InputError(f"{self.path}:{self.line}: bad camera record ({exc})") from None
+            status = rec.get("status", "ok")
+            item.estimate = CameraEstimate(item.index, item.pts, status if status != "lost" else "tracked", cam, float(rec.get("confidence", 1.0)))
+        else:
+            item.estimate = CameraEstimate.lost(item.index, item.pts)
+        return [item]
+
+    def close(self) -> None:
+        self.f.close()
+
+
+# BT.601 limited range (FFmpeg's default for untagged video, and OpenCV's I420
+# conversions), rows Y, U, V; columns B, G, R, alpha (premultiplied offsets).
+_BGRA_TO_YUV = (
+    np.array(
+        [
+            [24.966, 128.553, 65.481, 16.0],
+            [112.0, -74.203, -37.797, 128.0],
+            [-18.214, -93.786, 112.0, 128.0],
+        ],
+        np.float32,
+    )
+    / 255.0
+)
+
+
+def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, rects) -> None:
+    """Premultiplied "over" of a BGRA overlay onto an I420 frame, in place.
+
+    Only the rectangles are touched (aligned outward to even pixels). The
+    overlay colour is converted to YUV (BT.601 limited range) inside them;
+    chroma uses the 2 x 2 mean of premultiplied colour and alpha, which is
+    exact for 4:2:0.
+
+    Parameters
+    ----------
+    yuv : (H * 3 / 2, W) uint8 I420 buffer, modified in place
+    width, height : int, even frame size
+    bgra : (H, W, 4) uint8, premultiplied B, G, R, A (zero outside ``rects``)
+    rects : iterable of (x0, y0, x1, y1), half-open pixel rectangles
+    """
+    Y, U, V = i420_planes(yuv, width, height)
+    for x0, y0, x1, y1 in rects:
+        x0, y0 = max(int(x0) & ~1, 0), max(int(y0) & ~1, 0)
+        x1, y1 = min((int(x1) + 1) & ~1, width), min((int(y1) + 1) & ~1, height)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        ov = bgra[y0:y1, x0:x1].astype(np.float32)
+        pm = cv2.transform(ov, _BGRA_TO_YUV)  # premultiplied Y, U, V (h, w, 3)
+        inv = 1.0 - ov[..., 3] * (1.0 / 255.0)
+        ys = Y[y0:y1, x0:x1]
+        out = pm[..., 0] + ys * inv
+        np.clip(out, 0.0, 255.0, out=out)
+        ys[...] = out + 0.5
+        h2, w2 = (y1 - y0) // 2, (x1 - x0) // 2
+        pm2 = cv2.resize(pm[..., 1:], (w2, h2), interpolation=cv2.INTER_AREA)
+        inv2 = cv2.resize(inv, (w2, h2), interpolation=cv2.INTER_AREA)
+        for c, plane in ((0, U), (1, V)):
+            ps = plane[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
+            out = pm2[..., c] + ps * inv2
+            np.clip(out, 0.0, 255.0, out=out)
+            ps[...] = out + 0.5
+
+
+def load_scene_arg(scene):
+    """A :class:`render.Scene` from None (the demo scene), a path, or a Scene."""
+    import render
+
+    if scene is None:
+        return render.default_scene()
+    if isinstance(scene, render.Scene):
+        return scene
+    return render.load_scene(scene)
+
+
+class RenderStage(Stage):
+    """Draw the scene with the frame's camera and composite it, keyed by the grass matte.
+
+    Frames without a camera pass untouched. Raises :class:`ArstreamError`
+    naming the fix when no OpenGL context can be made.
+    """
+
+    name = "render"
+
+    def __init__(self, width: int, height: int, scene=None, *, renderer=None):
+        from render import GLContextError, Renderer
+
+        self.width, self.height = width, height
+        if renderer is None:
+            try:
+                renderer = Renderer(width, height, load_scene_arg(scene))
+            except GLContextError as exc:
+                raise ArstreamError(f"{exc} (or leave out -o to write only cameras.jsonl)") from None
+        self.renderer = renderer
+
+    def process(self, item: Item) -> list[Item]:
+        cam = item.estimate.camera if item.estimate is not None else None
+        if cam is None:
+            return [item]
+        ov = self.renderer.render(cam, grass_matte=item.matte)
+        if ov.empty:
+            return [item]
+        f = item.frame
+        if f.yuv is not None:
+            composite_i420(f.yuv, f.width, f.height, ov.bgra, ov.rects)
+            f._image = None  # the BGR copy (if any) shows the input, not the output
+        else:
+            self.renderer.compositor.composite(f.image, ov)
+        item.drawn = True
+        return [item]
+
+    def close(self) -> None:
+        self.renderer.release()
+
+
+class EncodeStage(Stage):
+    """H.264 encode (libx264) on a thread, with the input's audio copied through.
+
+    Frames keep the input's timestamps and time base. ``process`` queues the
+    frame (bounded queue; it blocks when the encoder is behind) and returns
+    the item at once; ``close`` drains the queue, writes the trailer and moves
+    the file into place.
+    """
+
+    name = "encode"
+
+    def __init__(self, path, source: VideoSource, *, crf: int = 20, preset: str = "veryfast", audio: bool = True, queue_size: int = 4, rebase: bool = False):
+        audio_in = source.audio_stream if audio else None
+        self.sink = VideoSink(path, source.width, source.height, source.rate, crf=crf, preset=preset, time_base=source.time_base, audio_from=audio_in)
+        self.path = self.sink.path
+        self.rebase = rebase  # live sources: start the output at 0
+        self._ts0 = None
+        self.q: collections.deque = collections.deque()
+        self.cv = threading.Condition()
+        self.queue_size = queue_size
+        self.error: BaseException | None = None
+        self.encode_ms = 0.0
+        self.thread = threading.Thread(target=self._run, name="arstream-encode", daemon=True)
+        self.thread.start()
+
+    def _put(self, msg) -> None:
+        with self.cv:
+            while len(self.q) >= self.queue_size and self.error is None and self.thread.is_alive():
+                self.cv.wait(0.1)
+            if self.error is not None:
+                raise ArstreamError(f"encoding {self.path} failed: {self.error}")
+            self.q.append(msg)
+            self.cv.notify_all()
+
+    def process(self, item: Item) -> list[Item]:
+        f = item.frame
+        ts = f.ts
+        if ts is not None and self.rebase:
+            if self._ts0 is None:
+                self._ts0 = ts
+            ts -= self._ts0
+        self._put(("yuv" if f.yuv is not None else "bgr", f.yuv if f.yuv is not None else f.image, f.pts, ts))
+        return [item]
+
+    def audio(self, packet) -> None:
+        """Queue one input audio packet to be muxed unchanged."""
+        if self.sink.audio_out is not None and not self.rebase:
+            self._put(("audio", packet, None, None))
+
+    def _run(self) -> None:
+        sink = self.sink
+        while True:
+            with self.cv:
+                while not self.q:
+                    self.cv.wait()
+                msg = self.q.popleft()
+                self.cv.notify_all()
+            if msg is None:
+                return
+            kind, data, pts, ts = msg
+            try:
+                t0 = time.perf_counter()
+                if kind == "yuv":
+                    sink.write_yuv(data, pts, ts=ts)
+                elif kind == "bgr":
+                    sink.write(data, pts, ts=ts)
+                else:
+                    sink.mux_audio(data)
+                    continue
+                self.encode_ms += (time.perf_counter() - t0) * 1e3
+            except BaseException as exc:  # reported to the main thread by the next _put / close
+                with self.cv:
+                    self.error = exc
+                    self.q.clear()
+                    self.cv.notify_all()
+                return
+
+    @property
+    def frames_written(self) -> int:
+        return self.sink.frames_written
+
+    def close(self) -> None:
+        if self.thread.is_alive():
+            with self.cv:
+                self.q.append(None)
+                self.cv.notify_all()
+            self.thread.join()
+        try:
+            self.sink.close()
+        finally:
+            if self.error is not None:
+                raise ArstreamError(f"encoding {self.path} failed: {self.error}")
+
+
+class CamerasOutStage(Stage):
+    """Write each frame's estimate to ``cameras.jsonl`` (complete lines, flushed per frame)."""
+
+    name = "cameras"
+
+    def __init__(self, path):
+        self.writer = JsonlWriter(path)
+        self.path = self.writer.path
+
+    def process(self, item: Item) -> list[Item]:
+        self.writer.write(item.estimate.to_record())
+        return [item]
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+# --------------------------------------------------------------------------- summary
+@dataclass
+class Summary:
+    """What a run did.
+
+    Attributes
+    ----------
+    input : str
+    output, cameras : str or None, files written
+    frames : int, frames that went through every stage (= frames written)
+    tracked : int, frames with a camera (status "ok" or "tracked")
+    confidence : float, mean confidence over all frames (0 for lost frames)
+    seconds : float, wall time of the run (decode to trailer)
+    dropped : int, frames dropped to keep up in real time
+    errors : list of str, input damage (skipped packets, truncation)
+    interrupted : int or None, the signal that stopped the run
+    stage_ms : dict, mean milliseconds per frame of each stage
+    missing : list of str, pipeline stages whose module does not exist yet
+    """
+
+    input: str = ""
+    output: str | None = None
+    cameras: str | None = None
+    frames: int = 0
+    tracked: int = 0
+    confidence: float = 0.0
+    seconds: float = 0.0
+    dropped: int = 0
+    errors: list = field(default_factory=list)
+    interrupted: int | None = None
+    stage_ms: dict = field(default_factory=dict)
+    missing: list = field(default_factory=list)
+    width: int = 0
+    height: int = 0
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def share_tracked(self) -> float:
+        return self.tracked / self.frames if self.frames else 0.0
+
+    def line(self) -> str:
+        """One line for the terminal."""
+        s = (
+            f"{self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps), "
+            f"tracked {self.share_tracked:.1%}, mean confidence {self.confidence:.2f}"
+        )
+        if self.dropped:
+            s += f", dropped {self.dropped}"
+        outs = [p for p in (self.output, self.cameras) if p]
+        if outs:
+            s += " -> " + ", ".join(outs)
+        return s
+
+    def to_dict(self) -> dict:
+        return {
+            "input": self.input,
+            "output": self.output,
+            "cameras": self.cameras,
+            "frames": self.frames,
+            "tracked": self.tracked,
+            "share_tracked": round(self.share_tracked, 4),
+            "mean_confidence": round(self.confidence, 4),
+            "seconds": round(self.seconds, 3),
+            "fps": round(self.fps, 2),
+            "dropped": self.dropped,
+            "errors": list(self.errors),
+            "interrupted": self.interrupted,
+            "stage_ms": {k: round(v, 3) for k, v in self.stage_ms.items()},
+            "missing": list(self.missing),
+            "size": [self.width, self.height],
+        }
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by SIGINT/SIGTERM after its outputs were finalised."""
+
+    def __init__(self, signum: int, summary: Summary):
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+        self.signum = signum
+        self.summary = summary
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + int(self.signum)
+
+
+# --------------------------------------------------------------------------- the runner
+class _Mailbox:
+    """Decode -> main hand-over: a bounded queue of ("frame", Frame, t) / ("audio", pkt) / ("end",).
+
+    ``latest_only``: a new frame replaces a waiting one (counted in ``dropped``).
+    """
+
+    def __init__(self, size: int, latest_only: bool):
+        self.q: collections.deque = collections.deque()
+        self.cv = threading.Condition()
+        self.size = size
+        self.latest_only = latest_only
+        self.frames = 0
+        self.dropped = 0
+        self.closed = False
+
+    def put(self, msg) -> bool:
+        """Returns False when the receiver has gone away."""
+        with self.cv:
+            if msg[0] == "frame":
+                if self.latest_only:
+                    while self.frames >= 1:
+                        for i, m in enumerate(self.q):
+                            if m[0] == "frame":
+                                del self.q[i]
+                                break
+                        self.frames -= 1
+                        self.dropped += 1
+                else:
+                    while self.frames >= self.size and not self.closed:
+                        self.cv.wait(0.1)
+                self.frames += 1
+            elif not self.latest_only:
+                while len(self.q) >= 4 * self.size and not self.closed:
+                    self.cv.wait(0.1)
+            if self.closed:
+                return False
+            self.q.append(msg)
+            self.cv.notify_all()
+            return True
+
+    def get(self, timeout: float):
+        with self.cv:
+            if not self.q:
+                self.cv.wait(timeout)
+                if not self.q:
+                    return None
+            msg = self.q.popleft()
+            if msg[0] == "frame":
+                self.frames -= 1
+            self.cv.notify_all()
+            return msg
+
+    def close(self) -> None:
+        with self.cv:
+            self.closed = True
+            self.q.clear()
+            self.frames = 0
+            self.cv.notify_all()
+
+
+class Pipeline:
+    """Run a :class:`VideoSource` through stages on three threads.
+
+    Parameters
+    ----------
+    source : VideoSource (opened; the pipeline does not close it)
+    stages : list of Stage, in order
+    realtime : bool, pace to the source clock and drop frames to keep up
+    queue_size : int, frames between decode and the stages (offline)
+    progress : callable(done, total), optional, called after each frame
+    max_frames : int, optional, stop after this many decoded frames
+    """
+
+    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None):
+        self.source = source
+        self.stages = list(stages)
+        self.realtime = realtime
+        self.progress = progress
+        self.max_frames = max_frames
+        self.box = _Mailbox(queue_size, latest_only=realtime)
+        self._stop = threading.Event()
+        self._signal: int | None = None
+        self._decode_error: BaseException | None = None
+        self.summary = Summary(input=source.path, width=source.width, height=source.height)
+        self._stage_ms = collections.Counter()
+        self._late = 0
+        self._conf = 0.0
+        self._audio_stages = [s for s in self.stages if hasattr(s, "audio")]
+
+    # ---- decode thread
+    def _decode(self) -> None:
+        box = self.box
+        interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
+        anchor = None  # (wall time, pts) of the pacing clock
+        on_audio = (lambda p: box.put(("audio", p))) if self._audio_stages else None
+        frames = self.source.frames(on_audio=on_audio, stop=self._stop.is_set)
+        try:
+            n = 0
+            for frame in frames:
+                if self.realtime:
+                    now = time.perf_counter()
+                    if anchor is None:
+                        anchor = (now, frame.pts)
+                    wait = anchor[0] + (frame.pts - anchor[1]) - now
+                    if wait > 1.0 or wait < -2 * interval:  # a jump in the clock, or the source stalled: re-anchor
+                        anchor = (now, frame.pts)
+                    elif wait > 0 and not self.source.is_live:
+                        if self._stop.wait(wait):
+                            break
+                if not box.put(("frame", frame, time.perf_counter())):
+                    break
+                n += 1
+                if self.max_frames is not None and n >= self.max_frames:
+                    break
+        except BaseException as exc:
+            self._decode_error = exc
+        finally:
+            frames.close()
+            box.put(("end",))
+
+    # ---- signals
+    @contextlib.contextmanager
+    def _signals(self, enabled: bool):
+        if not enabled or threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum, _frame):
+            if self._signal is None:
+                self._signal = signum  # graceful: stop between frames
+            else:
+                raise KeyboardInterrupt  # a second signal: stop now
+
+        old = {}
+        try:
+            for s in (signal.SIGINT, signal.SIGTERM):
+                old[s] = signal.signal(s, handler)
+            yield
+        finally:
+            for s, h in old.items():
+                signal.signal(s, h)
+
+    # ---- stage plumbing
+    def _push(self, items: list[Item], start: int = 0) -> None:
+        for stage in self.stages[start:]:
+            nxt = []
+            name = stage.name
+            for it in items:
+                t0 = time.perf_counter()
+                res = stage.process(it)
+                dt = (time.perf_counter() - t0) * 1e3
+                it.timings[name] = it.timings.get(name, 0.0) + dt
+                self._stage_ms[name] += dt
+                nxt.extend(res)
+            items = nxt
+            if not items:
+                return
+        for it in items:
+            self._done(it)
+
+    def _done(self, item: Item) -> None:
+        s = self.summary
+        s.frames += 1
+        est = item.estimate
+        if est is not None and est.status != "lost":
+            s.tracked += 1
+        if est is not None:
+            self._conf += float(est.confidence)
+        if self.progress is not None:
+            self.progress(s.frames, self.source.frame_count)
+
+    def _flush(self) -> None:
+        for i, stage in enumerate(self.stages):
+            items = stage.flush()
+            if items:
+                self._push(items, i + 1)
+
+    # ---- run
+    def run(self, *, handle_signals: bool = True) -> Summary:
+        """Process the whole source (or until stopped); returns the :class:`Summary`.
+
+        Raises
+        ------
+        Interrupted
+            After a graceful stop by SIGINT/SIGTERM (outputs finalised).
+        """
+        s = self.summary
+        t_start = time.perf_counter()
+        interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
+        decoder = threading.Thread(target=self._decode, name="arstream-decode", daemon=True)
+        failed = False
+        with self._signals(handle_signals):
+            try:
+                decoder.start()
+                while self._signal is None:
+                    msg = self.box.get(0.1)
+                    if msg is None:
+                        continue
+                    kind = msg[0]
+                    if kind == "end":
+                        break
+                    if kind == "audio":
+                        for st in self._audio_stages:
+                            st.audio(msg[1])
+                        continue
+                    frame, t_put = msg[1], msg[2]
+                    if self.realtime and time.perf_counter() - t_put > 2 * interval:
+                        self._late += 1  # too old to show: drop it rather than fall behind
+                        continue
+                    item = Item(frame)
+                    item.timings["decode"] = frame.decode_ms
+                    self._stage_ms["decode"] += frame.decode_ms
+                    self._push([item])
+                if self._decode_error is not None:
+                    raise self._decode_error
+                self._flush()
+            except BaseException:
+                failed = True
+                raise
+            finally:
+                self._stop.set()
+                self.box.close()
+                decoder.join(timeout=5.0)
+                self._close_stages(quiet=failed)
+                s.seconds = time.perf_counter() - t_start
+                s.dropped = self.box.dropped + self._late
+                s.errors = list(self.source.errors)
+                if s.frames:
+                    s.confidence = self._conf / s.frames
+                    s.stage_ms = {k: v / s.frames for k, v in self._stage_ms.items()}
+                    enc = next((st for st in self.stages if isinstance(st, EncodeStage)), None)
+                    if enc is not None:
+                        s.stage_ms["encode"] = enc.encode_ms / max(enc.frames_written, 1)
+        if self._signal is not None:
+            s.interrupted = self._signal
+            raise Interrupted(self._signal, s)
+        return s
+
+    def _close_stages(self, quiet: bool) -> None:
+        first = None
+        for stage in self.stages:
+            try:
+                stage.close()
+            except BaseException as exc:  # close every stage; report the first failure
+                if first is None:
+                    first = exc
+        if first is not None and not quiet:
+            raise first
+
+
+# --------------------------------------------------------------------------- library API
+def _has(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def _missing(*stages) -> list[str]:
+    """Stages whose module is not in this build (they pass frames through)."""
+    return [name for name, mod in (("detect", "arstream.detect"), ("track", "arstream.track")) if any(st.name == name for st in stages) and not _has(mod)]
+
+
+def _open(input, *, format=None, options=None) -> VideoSource:
+    return VideoSource(input, format=format, options=options)
+
+
+def _check_output(output, input) -> None:
+    if output is not None and os.path.abspath(os.fspath(output)) == os.path.abspath(os.fspath(input)):
+        raise InputError(f"output {output} would overwrite the input")
+
+
+def _build(stages_fn, source: VideoSource) -> list[Stage]:
+    """Create the stages; close the ones already made if a later one fails."""
+    made: list[Stage] = []
+    try:
+        for make in stages_fn:
+            st = make()
+            if st is not None:
+                made.append(st)
+    except BaseException:
+        for st in made:
+            with contextlib.suppress(Exception):
+                if isinstance(st, EncodeStage):
+                    st.close()
+                    with contextlib.suppress(OSError):
+                        os.remove(st.path)  # nothing was written: leave no empty file
+                else:
+                    st.close()
+        raise
+    return made
+
+
+def process(
+    input,
+    output=None,
+    *,
+    scene=None,
+    cameras_out=None,
+    lag: int = DEFAULT_LAG,
+    crf: int = 20,
+    preset: str = "veryfast",
+    audio: bool = True,
+    progress: Callable | None = None,
+    max_frames: int | None = None,
+    handle_signals: bool = True,
+) -> Summary:
+    """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
+
+    Mirrors ``arstream process IN -o OUT.mp4 [--scene S] [--cameras-out C]``.
+
+    Parameters
+    ----------
+    input : path of a video file
+    output : path of the augmented video (H.264; the input's frame rate, time
+        base and audio kept), or None to write only ``cameras_out``
+    scene : path of a scene file (.toml/.json), a ``render.Scene``, or None
+        for the demo scene (a logo on the grass and an offside line)
+    cameras_out : path for ``cameras.jsonl`` (one record per frame), optional
+    lag : frames of look-ahead of the smoother (0: causal, as live)
+    crf, preset : x264 quality and speed
+    audio : copy the input's first audio stream through
+    progress : callable(done, total), optional
+    max_frames : stop after this many frames
+    handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
+
+    Returns
+    -------
+    Summary. ``summary.errors`` lists damage found in the input (the frames
+    that decoded were processed).
+
+    Raises
+    ------
+    InputError : missing file, not a video, bad output path
+    ArstreamError : no OpenGL context (names the fix), stage failures
+    Interrupted : stopped by a signal, after the outputs were finalised
+    """
+    if output is None and cameras_out is None:
+        raise InputError("nothing to write: give an output video, cameras_out, or both")
+    _check_output(output, input)
+    _check_output(cameras_out, input)
+    with _open(input) as src:
+        W, H = src.width, src.height
+        stages = _build(
+            [
+                lambda: DetectStage(W, H),
+                lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect")),
+                (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
+                (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
+                (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
+            ],
+            src,
+        )
+        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames)
+        pipe.summary.output = os.fspath(output) if output is not None else None
+        pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)
+
+
+def render_clip(
+    input,
+    cameras,
+    output,
+    *,
+    scene=None,
+    key: bool = True,
+    crf: int = 20,
+    preset: str = "veryfast",
+    audio: bool = True,
+    progress: Callable | None = None,
+    handle_signals: bool = True,
+) -> Summary:
+    """Draw a scene on a clip with cameras read from a ``cameras.jsonl`` (no solving).
+
+    The decode -> composite -> encode loop of :func:`process`, for
+    ``arstream render``. ``key=True`` runs the detector for the grass matte so
+    that players pass in front of on-grass graphics (when a detector exists).
+    """
+    _check_output(output, input)
+    with _open(input) as src:
+        W, H = src.width, src.height
+        stages = _build(
+            [
+                (lambda: DetectStage(W, H)) if key else (lambda: None),
+                lambda: CamerasInStage(cameras),
+                lambda: RenderStage(W, H, scene),
+                lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio),
+            ],
+            src,
+        )
+        pipe = Pipeline(src, stages, progress=progress)
+        pipe.summary.output = os.fspath(output)
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)
+
+
+def stream(
+    source,
+    *,
+    rerun: tuple | list | str | None = None,
+    realtime: bool | None = None,
+    scene=None,
+    output=None,
+    cameras_out=None,
+    format: str | None = None,
+    options: dict | None = None,
+    bind: str = "127.0.0.1",
+    port: int = 9876,
+    jpeg_quality: int = 75,
+    max_frames: int | None = None,
+    progress: Callable | None = None,
+    handle_signals: bool = True,
+    warn: Callable[[str], None] | None = None,
+) -> Summary:
+    """Live mode: causal tracking (no look-ahead) of a file, URL or capture device,
+    logged to rerun. Mirrors ``arstream stream --source SRC [--rerun ...] [--realtime]``.
+
+    Parameters
+    ----------
+    source : file path, URL (rtsp://, http://, udp://, ...) or device (with ``format``,
+        e.g. ``format="v4l2"``, ``source="/dev/video0"``)
+    rerun : None (no logging), "spawn", ("save", path), ("connect", url or None), "serve"
+    realtime : pace to the source clock and drop frames rather than fall behind;
+        None: on for URLs and devices, off for files
+    scene, output, cameras_out : as :func:`process` (output and cameras optional)
+    bind, port : address of the rerun gRPC server for ``serve``
+    jpeg_quality : quality of the JPEG frames sent to rerun
+    warn : callable(str) for non-fatal problems (unreachable viewer); default stderr
+    """
+    from arstream.live import RerunLogger, parse_rerun
+
+    warn = warn or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
+    mode = parse_rerun(rerun)
+    if output is not None:
+        _check_output(output, source)
+    with _open(source, format=format, options=options) as src:
+        W, H = src.width, src.height
+        rt = src.is_live if realtime is None else bool(realtime)
+        logger_box: list = []
+
+        def make_logger():
+            if mode is None:
+                return None
+            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path))
+            logger_box.append(lg)
+            return lg.input_stage
+
+        stages = _build(
+            [
+                lambda: DetectStage(W, H),
+                lambda: TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect")),
+                make_logger,
+                lambda: RenderStage(W, H, scene),
+                (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
+                (lambda: EncodeStage(output, src, audio=not src.is_live, rebase=src.is_live)) if output is not None else (lambda: None),
+                (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
+            ],
+            src,
+        )
+        pipe = Pipeline(src, stages, realtime=rt, queue_size=1 if rt else 2, progress=progress, max_frames=max_frames)
+        pipe.summary.output = os.fspath(output) if output is not None else None
+        pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)

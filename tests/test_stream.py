@@ -1,0 +1,147 @@
+"""Live mode (``arstream stream``) and rerun logging: real PyAV, GL and rerun-sdk."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+
+import pytest
+
+import arstream
+from arstream.cli import main
+from arstream.errors import InputError
+from arstream.live import DEFAULT_URL, RerunLogger, parse_rerun
+from arstream.sink import read_jsonl
+from arstream.synth import generate
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RERUN = os.path.join(os.path.dirname(sys.executable), "rerun")
+HAVE_STAGES = all(os.path.exists(os.path.join(ROOT, "arstream", f"{m}.py")) for m in ("detect", "track"))
+
+
+@pytest.fixture(scope="module")
+def clip(tmp_path_factory):
+    d = tmp_path_factory.mktemp("stream")
+    generate(d, preset="wide", seed=4, frames=10, size=(320, 180))
+    return d
+
+
+def entities(rrd: str) -> dict[str, set[str]]:
+    """Entity path -> component columns, from ``rerun rrd print``."""
+    out = subprocess.run([RERUN, "rrd", "print", rrd], capture_output=True, text=True, env=dict(os.environ, RERUN_ANALYTICS="0"))
+    assert out.returncode == 0, out.stderr
+    ents: dict[str, set[str]] = {}
+    for path, cols in re.findall(r" - (/\S*) - data columns: \[([^\]]*)\]", out.stdout):
+        ents.setdefault(path, set()).update(cols.split())
+    return ents
+
+
+def test_rerun_save_writes_a_valid_recording(clip, tmp_path, capsys):
+    rrd = tmp_path / "live.rrd"
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "save", str(rrd), "-o", str(tmp_path / "live.mp4"), "--cameras-out", str(tmp_path / "c.jsonl"), "-q", "--json"])
+    assert rc == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["frames"] == 10 and summary["dropped"] == 0
+    v = subprocess.run([RERUN, "rrd", "verify", str(rrd)], capture_output=True, text=True, env=dict(os.environ, RERUN_ANALYTICS="0"))
+    assert v.returncode == 0, v.stderr
+    ents = entities(str(rrd))
+    assert "EncodedImage:blob" in ents["/input/frame"] and "EncodedImage:media_type" in ents["/input/frame"]
+    assert "EncodedImage:blob" in ents["/output/frame"]
+    assert "LineStrips2D:strips" in ents["/input/lines"] and "LineStrips2D:strips" in ents["/input/ellipse"]
+    assert "LineStrips3D:strips" in ents["/world/pitch"]
+    assert "/world/camera" in ents
+    assert "Scalars:scalars" in ents["/camera/confidence"]
+    assert {"/timing/decode", "/timing/detect", "/timing/track", "/timing/render"} <= set(ents)
+    assert not any("Image:buffer" in c for cols in ents.values() for c in cols)  # frames are compressed, never raw
+    assert len(read_jsonl(tmp_path / "c.jsonl")) == 10
+
+
+@pytest.mark.xfail(not HAVE_STAGES, reason="arstream/detect.py or arstream/track.py not in the tree yet: no camera to log", strict=False)
+def test_rerun_logs_the_camera_when_tracked(clip, tmp_path):
+    rrd = tmp_path / "live.rrd"
+    s = arstream.stream(clip / "clip.mp4", rerun=("save", rrd))
+    assert s.tracked > 0
+    ents = entities(str(rrd))
+    assert {"Pinhole:image_from_camera", "Transform3D:translation"} <= ents["/world/camera"]
+    for name in ("focal", "pan", "tilt"):
+        assert "Scalars:scalars" in ents[f"/camera/{name}"]
+    assert "LineStrips2D:strips" in ents["/input/model"]
+
+
+def test_unreachable_viewer_warns_and_keeps_going(clip, tmp_path, capsys):
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    url = f"rerun+http://127.0.0.1:{port}/proxy"
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "connect", url, "-o", str(tmp_path / "o.mp4"), "-q"])
+    err = capsys.readouterr().err
+    assert rc == 0
+    assert "warning: no rerun viewer at" in err and url in err
+    assert (tmp_path / "o.mp4").exists()
+
+
+def test_realtime_paces_and_reports_drops(clip, capsys):
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "none", "--realtime", "-q", "--json"])
+    assert rc == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["frames"] + s["dropped"] == 10
+    assert s["seconds"] >= 9 / 25  # paced to the clip's clock (25 fps), never faster
+
+
+def test_serve_binds_to_localhost_by_default():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    log = RerunLogger(parse_rerun("serve"), 320, 180, port=port)
+    try:
+        assert log.uri == f"rerun+http://127.0.0.1:{port}/proxy"
+        listening = set()
+        for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+            if os.path.exists(table):
+                for line in open(table).read().splitlines()[1:]:
+                    local, state = line.split()[1], line.split()[3]
+                    addr, p = local.rsplit(":", 1)
+                    if int(p, 16) == port and state == "0A":  # LISTEN
+                        listening.add(addr)
+        assert listening == {"0100007F"}, listening  # 127.0.0.1 only
+    finally:
+        log.close()
+
+
+@pytest.mark.parametrize(
+    "value, want",
+    [
+        (None, None),
+        ("spawn", ("spawn", None)),
+        ("serve", ("serve", None)),
+        (["save", "a.rrd"], ("save", "a.rrd")),
+        ("save:a.rrd", ("save", "a.rrd")),
+        (["connect"], ("connect", DEFAULT_URL)),
+        (["connect", "rerun+http://h:1/proxy"], ("connect", "rerun+http://h:1/proxy")),
+    ],
+)
+def test_parse_rerun(value, want):
+    assert parse_rerun(value) == want
+
+
+@pytest.mark.parametrize("value, words", [(["save"], "needs a file"), (["view"], "unknown mode"), (["spawn", "x"], "takes no argument"), (["connect", "a", "b"], "at most one")])
+def test_parse_rerun_errors(value, words):
+    with pytest.raises(InputError, match=words):
+        parse_rerun(value)
+
+
+def test_stream_help_and_errors(capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["stream", "--help"])
+    assert e.value.code == 0
+    h = capsys.readouterr().out
+    for word in ("--source SRC", "--rerun", "--realtime", "--bind", "save FILE.rrd", "connect [URL]", "127.0.0.1"):
+        assert word in h
+    assert main(["stream", "--source", str(tmp_path / "none.mp4"), "--rerun", "none"]) == 2
+    assert "input not found" in capsys.readouterr().err
+    assert main(["stream", "--source", str(tmp_path / "none.mp4"), "--rerun", "save"]) == 2
+    assert "needs a file name" in capsys.readouterr().err
