@@ -70,6 +70,7 @@ __all__ = [
     "Item",
     "Stage",
     "DetectStage",
+    "MatteStage",
     "TrackStage",
     "CamerasInStage",
     "RenderStage",
@@ -169,6 +170,33 @@ class DetectStage(Stage):
             item.detections = det
             item.matte = getattr(det, "grass_mask", None)
         return [item]
+
+
+class MatteStage(Stage):
+    """A grass matte from a function of the BGR frame (e.g. ``render.keying.green_matte``),
+    for keying without the detector.
+
+    Parameters
+    ----------
+    fn : callable(image_bgr) -> (H, W) uint8 matte, 255 = grass
+    """
+
+    name = "key"
+
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray]):
+        self.fn = fn
+
+    def process(self, item: Item) -> list[Item]:
+        item.matte = self.fn(item.frame.image)
+        return [item]
+
+    @classmethod
+    def green(cls, width: int, height: int) -> "MatteStage":
+        """Chroma key on the grass hue (``render.keying.green_matte``), into a reused buffer."""
+        from render.keying import green_matte
+
+        buf = np.empty((height, width), np.uint8)
+        return cls(lambda image: green_matte(image, out=buf))
 
 
 class TrackStage(Stage):
@@ -284,27 +312,20 @@ class CamerasInStage(Stage):
 
 
 # BT.601 limited range (FFmpeg's default for untagged video, and OpenCV's I420
-# conversions), rows Y, U, V; columns B, G, R, alpha (premultiplied offsets).
-_BGRA_TO_YUV = (
-    np.array(
-        [
-            [24.966, 128.553, 65.481, 16.0],
-            [112.0, -74.203, -37.797, 128.0],
-            [-18.214, -93.786, 112.0, 128.0],
-        ],
-        np.float32,
-    )
-    / 255.0
-)
+# conversions): Y, U, V from B, G, R, with the offsets scaled by alpha, so that
+# premultiplied colour maps to premultiplied YUV (all of it within 0..255).
+_BGRA_TO_Y = np.array([[24.966, 128.553, 65.481, 16.0]], np.float32) / 255.0
+_BGRA_TO_UV = np.array([[112.0, -74.203, -37.797, 128.0], [-18.214, -93.786, 112.0, 128.0]], np.float32) / 255.0
 
 
 def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, rects) -> None:
     """Premultiplied "over" of a BGRA overlay onto an I420 frame, in place.
 
-    Only the rectangles are touched (aligned outward to even pixels). The
-    overlay colour is converted to YUV (BT.601 limited range) inside them;
-    chroma uses the 2 x 2 mean of premultiplied colour and alpha, which is
-    exact for 4:2:0.
+    Only the rectangles are touched (aligned outward to even pixels). Inside
+    them the overlay is converted to premultiplied YUV (BT.601 limited range);
+    chroma uses the 2 x 2 mean of premultiplied colour and of alpha, which is
+    what "over" followed by 4:2:0 subsampling gives. 8-bit OpenCV arithmetic
+    throughout (rounding error within one level).
 
     Parameters
     ----------
@@ -319,21 +340,18 @@ def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, r
         x1, y1 = min((int(x1) + 1) & ~1, width), min((int(y1) + 1) & ~1, height)
         if x1 <= x0 or y1 <= y0:
             continue
-        ov = bgra[y0:y1, x0:x1].astype(np.float32)
-        pm = cv2.transform(ov, _BGRA_TO_YUV)  # premultiplied Y, U, V (h, w, 3)
-        inv = 1.0 - ov[..., 3] * (1.0 / 255.0)
+        ov = bgra[y0:y1, x0:x1]
+        inv = cv2.bitwise_not(cv2.extractChannel(ov, 3))  # 255 - alpha
         ys = Y[y0:y1, x0:x1]
-        out = pm[..., 0] + ys * inv
-        np.clip(out, 0.0, 255.0, out=out)
-        ys[...] = out + 0.5
-        h2, w2 = (y1 - y0) // 2, (x1 - x0) // 2
-        pm2 = cv2.resize(pm[..., 1:], (w2, h2), interpolation=cv2.INTER_AREA)
-        inv2 = cv2.resize(inv, (w2, h2), interpolation=cv2.INTER_AREA)
+        cv2.multiply(ys, inv, dst=ys, scale=1.0 / 255.0)
+        cv2.add(ys, cv2.transform(ov, _BGRA_TO_Y), dst=ys)
+        size2 = ((x1 - x0) // 2, (y1 - y0) // 2)
+        uv = cv2.resize(cv2.transform(ov, _BGRA_TO_UV), size2, interpolation=cv2.INTER_AREA)
+        inv2 = cv2.resize(inv, size2, interpolation=cv2.INTER_AREA)
         for c, plane in ((0, U), (1, V)):
             ps = plane[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
-            out = pm2[..., c] + ps * inv2
-            np.clip(out, 0.0, 255.0, out=out)
-            ps[...] = out + 0.5
+            cv2.multiply(ps, inv2, dst=ps, scale=1.0 / 255.0)
+            cv2.add(ps, cv2.extractChannel(uv, c), dst=ps)
 
 
 def load_scene_arg(scene):
@@ -511,6 +529,7 @@ class Summary:
     tracked : int, frames with a camera (status "ok" or "tracked")
     confidence : float, mean confidence over all frames (0 for lost frames)
     seconds : float, wall time of the run (decode to trailer)
+    cpu_seconds : float, CPU time of the process over the run (all threads)
     dropped : int, frames dropped to keep up in real time
     errors : list of str, input damage (skipped packets, truncation)
     interrupted : int or None, the signal that stopped the run
@@ -525,6 +544,7 @@ class Summary:
     tracked: int = 0
     confidence: float = 0.0
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
     dropped: int = 0
     errors: list = field(default_factory=list)
     interrupted: int | None = None
@@ -564,6 +584,7 @@ class Summary:
             "share_tracked": round(self.share_tracked, 4),
             "mean_confidence": round(self.confidence, 4),
             "seconds": round(self.seconds, 3),
+            "cpu_seconds": round(self.cpu_seconds, 3),
             "fps": round(self.fps, 2),
             "dropped": self.dropped,
             "errors": list(self.errors),
@@ -776,6 +797,7 @@ class Pipeline:
         """
         s = self.summary
         t_start = time.perf_counter()
+        cpu_start = time.process_time()
         interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
         decoder = threading.Thread(target=self._decode, name="arstream-decode", daemon=True)
         failed = False
@@ -813,6 +835,7 @@ class Pipeline:
                 decoder.join(timeout=5.0)
                 self._close_stages(quiet=failed)
                 s.seconds = time.perf_counter() - t_start
+                s.cpu_seconds = time.process_time() - cpu_start
                 s.dropped = self.box.dropped + self._late
                 s.errors = list(self.source.errors)
                 if s.frames:
@@ -951,7 +974,7 @@ def render_clip(
     output,
     *,
     scene=None,
-    key: bool = True,
+    key: bool | str | Callable = True,
     crf: int = 20,
     preset: str = "veryfast",
     audio: bool = True,
@@ -961,15 +984,30 @@ def render_clip(
     """Draw a scene on a clip with cameras read from a ``cameras.jsonl`` (no solving).
 
     The decode -> composite -> encode loop of :func:`process`, for
-    ``arstream render``. ``key=True`` runs the detector for the grass matte so
-    that players pass in front of on-grass graphics (when a detector exists).
+    ``arstream render``. ``key`` chooses the grass matte that keys on-grass
+    graphics (players pass in front of them): True or "detector" runs the
+    detector (no keying when this build has none); "green" a chroma key on the
+    grass hue; a callable(image_bgr) -> (H, W) uint8 matte your own; False or
+    None no keying.
     """
     _check_output(output, input)
+    if key is True:
+        key = "detector"
+    if not (key in (None, False, "detector", "green") or callable(key)):
+        raise InputError(f"key must be 'detector', 'green', a function or None, got {key!r}")
     with _open(input) as src:
         W, H = src.width, src.height
+        if key == "detector":
+            make_key = lambda: DetectStage(W, H)  # noqa: E731
+        elif key == "green":
+            make_key = lambda: MatteStage.green(W, H)  # noqa: E731
+        elif callable(key):
+            make_key = lambda: MatteStage(key)  # noqa: E731
+        else:
+            make_key = lambda: None  # noqa: E731
         stages = _build(
             [
-                (lambda: DetectStage(W, H)) if key else (lambda: None),
+                make_key,
                 lambda: CamerasInStage(cameras),
                 lambda: RenderStage(W, H, scene),
                 lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio),
