@@ -24,7 +24,6 @@ __all__ = [
     "absolute_orientation",
     "rotation_from_rotvec",
     "rotvec_from_rotation",
-    "sample_conic_points",
 ]
 
 # order of the 6 unique entries: c11, c12, c22, c13, c23, c33
@@ -164,7 +163,3 @@ def rotvec_from_rotation(R) -> np.ndarray:
     """(3, 3) rotation matrix -> (3,) rotation vector (radians)."""
     return Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_rotvec()
 
-
-def sample_conic_points(ellipse, n: int) -> np.ndarray:
-    """(n, 2) points uniformly in the parametric angle of a ``geometry.conics.Ellipse``."""
-    return ellipse.points(n)

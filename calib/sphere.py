@@ -34,6 +34,18 @@ norm, negative inside an ellipse) as in :mod:`geometry.conics`. Points are
 ``(N, 2)`` float64 pixels. Distances of the sphere are in the units of the
 radius you give.
 
+Accuracy (bench/sphere_calibration.py, figures in bench/README.md): 640 x 480
+images, f = 1000, 5 spheres of 40-70 px radius, 200 outline points each,
+median focal error 1.4 % at 0.5 px and 2.7 % at 1 px of point noise — the
+maximum-likelihood value; the linear estimate alone gives 2.2 % and 4.5 %.
+Spheres constrain K less than a chessboard does (OpenCV's calibrateCamera on
+5 views of a 9 x 6 board with the same noise: 0.6 % and 1.2 %): an outline
+point only measures its normal displacement, and the focal length shows only
+in the outlines' small perspective eccentricity. Use more images, larger
+spheres, spheres near the image corners. ``SphereIntrinsics.focal_sigma``
+predicts the error (first order). A rig of 3 cameras and 20 sphere
+positions at 0.5 px gets its rotations to about 0.03 degrees.
+
 References: H. Zhang, K.-Y. K. Wong, G. Zhang, "Camera calibration from
 images of spheres", PAMI 2007; X. Ying, H. Zha, "Geometric interpretations of
 the relation between the image of the absolute conic and sphere images",
@@ -92,9 +104,6 @@ __all__ = [
     "refine_intrinsics",
     "rig_extrinsics",
 ]
-
-_MODELS = ("square_pixels", "zero_skew", "general")
-
 
 # --------------------------------------------------------------------------
 # result types
@@ -230,7 +239,7 @@ def _check_K(K, name: str = "K") -> np.ndarray:
 
 
 def _check_conic(C, name: str = "conic", *, ellipse: bool = True) -> np.ndarray:
-    C = np.asarray(C, dtype=np.float64) if not isinstance(C, np.ndarray) or C.dtype != np.float64 else C
+    C = np.asarray(C, dtype=np.float64)
     if C.shape != (3, 3):
         raise ValueError(f"{name} must be a 3x3 conic matrix, got shape {C.shape}")
     if not np.all(np.isfinite(C)):
@@ -537,7 +546,7 @@ def _to_frame(T: np.ndarray, C: np.ndarray) -> np.ndarray:
     return np.array([normalize_conic(Ti.T @ c @ Ti) for c in np.atleast_3d(C).reshape(-1, 3, 3)])
 
 
-def _diagnose_linear(Cs_px: np.ndarray, Cs: np.ndarray, x0s: np.ndarray, s, n_params: int) -> None:
+def _diagnose_linear(x0s: np.ndarray, s, n_params: int) -> None:
     """Raise the ValueError that names the degeneracy of the linear system."""
     n_pairs = len(x0s)
     if n_pairs * 2 < n_params - 1:
@@ -648,7 +657,7 @@ def _conics_from_sphere_params(pk: np.ndarray, sp: np.ndarray, model: str) -> np
     return _outline_conics(Ki, d, r)
 
 
-def _geometric_problem(pts_list, model: str):
+def _geometric_problem(pts_list):
     pts = np.concatenate(pts_list)
     idx = np.concatenate([np.full(len(p), m) for m, p in enumerate(pts_list)])
     return pts, idx
@@ -695,7 +704,7 @@ def _focal_sigma(J: np.ndarray, sigma: float, pk: np.ndarray, model: str) -> flo
 def _run_geometric(K0, Cs_px, pts_list, model, *, max_nfev=100, loss="linear", f_scale=1.0):
     M = len(Cs_px)
     nK = len(_params_from_K(K0, model))
-    pts, idx = _geometric_problem(pts_list, model)
+    pts, idx = _geometric_problem(pts_list)
     x0 = np.concatenate([_params_from_K(K0, model), _sphere_params(K0, Cs_px).ravel()])
 
     def fun(x):
@@ -846,7 +855,7 @@ def intrinsics_from_spheres(
     Cs = _to_frame(T, Cs_px)
     nparams = len(_omega_basis(model))
     omega, n_pairs, x0s, s = _linear_omega(Cs, model)
-    _diagnose_linear(Cs_px, Cs, x0s, s, nparams)
+    _diagnose_linear(x0s, s, nparams)
     # noise can make the linear IAC indefinite when K is weakly constrained;
     # the fewer unknowns of a stricter model then give the initial K
     fallbacks = {"general": ["zero_skew", "square_pixels"], "zero_skew": ["square_pixels"], "square_pixels": []}[model]
@@ -870,7 +879,7 @@ def intrinsics_from_spheres(
     if pts_list is None:
         pts_list_eval = _sampled_outline_points(Cs_px)
         x = np.concatenate([_params_from_K(K_r1, model), _sphere_params(K_r1, Cs_px).ravel()])
-        pts, idx = _geometric_problem(pts_list_eval, model)
+        pts, idx = _geometric_problem(pts_list_eval)
         return _result_from_params(
             x, pts, idx, model, constraint_set="rank1", edge_given=False, noise_floor=noise_floor,
             weak_threshold=weak_threshold, K_linear=K_lin, K_rank1=K_r1, n_pairs=n_pairs,
