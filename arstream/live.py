@@ -33,7 +33,9 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import socket
+import sys
 import time
 import urllib.parse
 import uuid
@@ -118,6 +120,19 @@ def _reachable(url: str, timeout: float = 1.0) -> str | None:
         return exc.strerror or str(exc) or type(exc).__name__
 
 
+def _first_line(exc: BaseException) -> str:
+    return (str(exc).strip() or type(exc).__name__).splitlines()[0].rstrip(".")
+
+
+def _viewer_on_path() -> None:
+    """Let ``spawn`` find the ``rerun`` viewer installed beside this Python (a virtualenv
+    that is used without being activated)."""
+    if shutil.which("rerun") is None:
+        here = os.path.dirname(sys.executable)
+        if os.path.exists(os.path.join(here, "rerun")):
+            os.environ["PATH"] = here + os.pathsep + os.environ.get("PATH", "")
+
+
 class _InputStage:
     name = "rerun"
 
@@ -186,7 +201,7 @@ class RerunLogger:
             try:
                 self.rec.save(arg, default_blueprint=bp)
             except Exception as exc:
-                raise InputError(f"cannot write rerun recording {arg}: {exc}") from None
+                raise InputError(f"cannot write rerun recording {arg}: {_first_line(exc)}") from None
             self.uri = arg
         elif kind == "connect":
             why = _reachable(arg)
@@ -196,25 +211,34 @@ class RerunLogger:
                 self.rec.connect_grpc(arg, default_blueprint=bp)
                 self.uri = arg
         elif kind == "spawn":
-            try:
-                self.rec.spawn(port=port, default_blueprint=bp)
-            except Exception as exc:
-                self._disable(f"could not start a rerun viewer ({exc}); going on without rerun")
-            else:
-                url = f"rerun+http://127.0.0.1:{port}/proxy"
-                deadline = time.monotonic() + 5.0
-                why = _reachable(url)
-                while why is not None and time.monotonic() < deadline:
-                    time.sleep(0.2)
-                    why = _reachable(url)
-                if why is not None:
-                    self._disable(f"the spawned rerun viewer is not listening on port {port} ({why}; no display?); going on without rerun")
+            url = f"rerun+http://127.0.0.1:{port}/proxy"
+            if _reachable(url, timeout=0.3) is None:  # a viewer is already there: use it
+                self.rec.connect_grpc(url, default_blueprint=bp)
                 self.uri = url
+            elif sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+                self._disable("no display to open a rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); going on without rerun (use --rerun save FILE.rrd or --rerun serve)")
+            else:
+                _viewer_on_path()
+                try:
+                    self.rec.spawn(port=port, connect=False)
+                except Exception as exc:
+                    self._disable(f"could not start a rerun viewer ({_first_line(exc)}); going on without rerun (install the viewer with: pip install rerun-sdk)")
+                else:
+                    deadline = time.monotonic() + 2.0  # spawn itself waited for the port already
+                    why = _reachable(url)
+                    while why is not None and time.monotonic() < deadline:
+                        time.sleep(0.2)
+                        why = _reachable(url)
+                    if why is not None:
+                        self._disable(f"the rerun viewer did not start listening on port {port} ({why}); going on without rerun")
+                    else:
+                        self.rec.connect_grpc(url, default_blueprint=bp)
+                        self.uri = url
         elif kind == "serve":
             try:
                 self.rec.set_sinks(rr.GrpcServerSink(bind_ip=bind, port=port), default_blueprint=bp)
             except Exception as exc:
-                raise ArstreamError(f"cannot serve rerun on {bind}:{port}: {exc}") from None
+                raise ArstreamError(f"cannot serve rerun on {bind}:{port}: {_first_line(exc)}") from None
             self.uri = f"rerun+http://{bind}:{port}/proxy"
             self.warn(f"serving rerun on {self.uri} (open it with: rerun {self.uri})")
         else:  # pragma: no cover - parse_rerun rejects it
@@ -228,10 +252,6 @@ class RerunLogger:
     def _disable(self, msg: str) -> None:
         self.warn(msg)
         self.enabled = False
-        try:
-            self.rec.disconnect()
-        except Exception:
-            pass
 
     # ------------------------------------------------------------------ static
     def _log_static(self) -> None:

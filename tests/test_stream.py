@@ -145,3 +145,17 @@ def test_stream_help_and_errors(capsys, tmp_path):
     assert "input not found" in capsys.readouterr().err
     assert main(["stream", "--source", str(tmp_path / "none.mp4"), "--rerun", "save"]) == 2
     assert "needs a file name" in capsys.readouterr().err
+
+
+def test_spawn_without_display_warns_and_keeps_going(clip, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    r = subprocess.run(
+        [sys.executable, "-m", "arstream.cli", "stream", "--source", str(clip / "clip.mp4"), "--port", str(port), "--cameras-out", str(tmp_path / "c.jsonl"), "-q"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=60,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "warning: no display to open a rerun viewer" in r.stderr
+    assert len(read_jsonl(tmp_path / "c.jsonl")) == 10
