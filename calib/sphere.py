@@ -155,9 +155,10 @@ class SphereIntrinsics:
         parallel projection, nearly collinear imaged centres, too few points)
     focal_sigma : float, first-order relative standard deviation of the focal
         length(s) (largest of fx, fy) at the estimate
-    K_linear : (3, 3) float64, the linear estimate
-    K_rank1 : (3, 3) float64 or None, the rank-1-refined estimate (None when
-        the final stage did not need it, see :func:`refine_intrinsics`)
+    K_linear : (3, 3) float64 or None, the linear estimate (None from
+        :func:`refine_intrinsics`)
+    K_rank1 : (3, 3) float64 or None, the rank-1-refined estimate (None from
+        :func:`refine_intrinsics`, which starts from a given K)
     n_pairs : int, number of image pairs whose constraints entered the linear step
     """
 
@@ -1201,12 +1202,14 @@ def fit_sphere_outline(
 ) -> SphereOutline:
     """Find a sphere's silhouette in an image and fit its outline conic.
 
-    1. Candidates: OpenCV's circle Hough transform on the smoothed grey image
-       (if that finds nothing convincing: also on each colour channel, and the
-       classic gradient variant). Clutter makes spurious large circles win the
-       vote, so every candidate is scored by the fraction of its perimeter
-       with a strong, radially oriented colour gradient, and the best few are
-       verified by steps 2-3.
+    1. Candidates: circles fitted to arcs of the colour-gradient edge chains
+       (Canny on the Di Zenzo colour gradient, 48-pixel pieces of every
+       chain) and OpenCV's circle Hough transform ("ALT") on the smoothed
+       grey image; if none of them verifies, the Hough transform on each
+       colour channel, then the classic gradient Hough transform. Clutter
+       makes spurious circles win votes, so every candidate is scored by the
+       fraction of its perimeter with a strong, radially oriented colour
+       gradient, and those scoring at least 0.6 are verified by steps 2-3.
     2. Sub-pixel edge points: the smoothed colour image is sampled along the
        normals of the current outline (one normal per pixel of perimeter,
        0.25 px steps); the colour-gradient magnitude along each normal peaks
@@ -1217,7 +1220,8 @@ def fit_sphere_outline(
        dropped.
     3. Robust fitting: direct ellipse fit with Cauchy-weighted IRLS on
        Sampson distances, rejection beyond three robust standard deviations;
-       the search band narrows over three rounds, so specular highlights,
+       the search band narrows over five rounds (three wide, then 3 and 2 px
+       either side), so specular highlights,
        texture and clutter edges drop out as outliers.
     4. Choice: candidates are tried from the largest down, and the first
        whose outline is covered by edge points lying within 0.6 px of the fit

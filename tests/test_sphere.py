@@ -424,6 +424,21 @@ def test_rendered_two_spheres_with_roi():
         assert np.allclose(S.sphere_centre(KR, o.conic, r), x, rtol=0.02)
 
 
+def test_rendered_outline_polarity_flips_around_the_limb():
+    # side light, almost no ambient: the lit limb is brighter than the dark
+    # background, the shaded limb darker; the contrast changes sign around the outline
+    x = np.array([-0.12, 0.2, 1.8])
+    img = syn.render_spheres(
+        KR, x, RADIUS, SIZE, rng=12, background=np.full((SIZE[1], SIZE[0], 3), 25, np.float32),
+        light=(1.0, 0.2, -0.3), ambient=0.05, colours=[(200, 200, 200)],
+    )
+    o = S.fit_sphere_outline(img)
+    truth = ellipse_from_conic(S.outline_conic(KR, x, RADIUS))
+    assert o.support > 0.9
+    assert np.hypot(*np.subtract(o.ellipse.center, truth.center)) < 0.1
+    assert np.abs(np.subtract(o.ellipse.axes, truth.axes)).max() < 0.15
+
+
 def test_rendered_outline_grey_image():
     img = syn.render_spheres(KR, [0.1, 0.05, 1.5], RADIUS, SIZE, rng=9)
     o = S.fit_sphere_outline(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY))
