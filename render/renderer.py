@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import cv2
 import moderngl
 import numpy as np
 
@@ -82,7 +83,9 @@ void main() {
 _OBJECT_FS = """
 #version 330
 // variants: TEXTURED (multiply by a premultiplied RGBA texture), KEYED (multiply by
-// the grass matte), SOFT (blur the matte with 4 bilinear taps: a 3x3 tent at 1 px)
+// the grass matte), SOFT (blur the matte: two 2x2 gathers on the diagonal, a 3x3
+// kernel [1 1 0; 1 2 1; 0 1 1] / 8 at matte_softness = 1 px; GATHER4: the same with
+// four bilinear taps where textureGather is missing)
 uniform vec4 u_color;        // premultiplied
 #ifdef TEXTURED
 uniform sampler2D u_tex;     // premultiplied RGBA
@@ -104,7 +107,10 @@ void main() {
 #endif
 #ifdef KEYED
     vec2 p = gl_FragCoord.xy * u_inv_size;
-#ifdef SOFT
+#if defined(SOFT) && !defined(GATHER4)
+    vec4 q = textureGather(u_matte, p + u_soft) + textureGather(u_matte, p - u_soft);
+    float m = 0.125 * (q.x + q.y + q.z + q.w);
+#elif defined(SOFT)
     float m = 0.25 * (texture(u_matte, p + u_soft).r + texture(u_matte, p - u_soft).r
                     + texture(u_matte, p + vec2(u_soft.x, -u_soft.y)).r + texture(u_matte, p + vec2(-u_soft.x, u_soft.y)).r);
 #else
@@ -278,7 +284,9 @@ class Renderer:
             for keyed in (False, True):
                 defs = ("#define TEXTURED\n" if textured else "") + ("#define KEYED\n" if keyed else "")
                 if keyed and self.scene.matte_softness > 0:
-                    defs += "#define SOFT\n"
+                    defs += "#extension GL_ARB_texture_gather : enable\n#define SOFT\n"
+                    if "GL_ARB_texture_gather" not in ctx.extensions and ctx.version_code < 400:
+                        defs += "#define GATHER4\n"
                 prog = ctx.program(vertex_shader=_OBJECT_VS, fragment_shader=_OBJECT_FS.replace("#version 330\n", "#version 330\n" + defs, 1))
                 if textured:
                     prog["u_tex"].value = 0
@@ -352,9 +360,11 @@ class Renderer:
         self._tri_cols = tuple(np.ascontiguousarray(self._triangles[:, i]) for i in range(3))
         self._tri_part = np.repeat(np.arange(len(self._parts)), [g.tri_stop - g.tri_start for g in self._parts]) if self._parts else np.zeros(0, np.int64)
 
+        self._size = np.array([float(W), float(H)])
         self._buf = np.zeros((H, W, 4), np.uint8)
         self._ntx, self._nty = -(-W // TILE), -(-H // TILE)
         self._nbx, self._nby = -(-self._ntx // BLOCK), -(-self._nty // BLOCK)
+        self._blocks_u8 = np.zeros((self._nby * BLOCK, self._nbx * BLOCK), np.uint8)
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
@@ -391,8 +401,11 @@ class Renderer:
         Xc = self._positions @ camera.R.T + camera.t
         z = Xc[:, 2]
         front = z > 1e-6
+        all_front = bool(front.all())
+        if not front.any():
+            return empty
         with np.errstate(divide="ignore", invalid="ignore"):
-            xn = Xc[:, :2] / np.where(front, z, np.nan)[:, None]
+            xn = Xc[:, :2] / (z if all_front else np.where(front, z, np.nan))[:, None]
         k = _coeffs(camera.dist)
         if np.any(k):
             r2 = np.minimum((xn * xn).sum(axis=1), radial_limit(camera.dist))
@@ -401,38 +414,44 @@ class Renderer:
         u = K[0, 0] * xn[:, 0] + K[0, 1] * xn[:, 1] + K[0, 2]
         v = K[1, 1] * xn[:, 1] + K[1, 2]
         a, b, c = self._tri_cols
-        n_front = front[a].view(np.int8) + front[b].view(np.int8) + front[c].view(np.int8)
-        ua, ub, uc, va, vb, vc = u[a], u[b], u[c], v[a], v[b], v[c]
-        x0 = np.floor(np.minimum(np.minimum(ua, ub), uc)) - 1.0  # NaN where a vertex is behind the camera
-        x1 = np.ceil(np.maximum(np.maximum(ua, ub), uc)) + 2.0
-        y0 = np.floor(np.minimum(np.minimum(va, vb), vc)) - 1.0
-        y1 = np.ceil(np.maximum(np.maximum(va, vb), vc)) + 2.0
-        cross = (n_front > 0) & (n_front < 3)  # crosses the camera plane: may cover anything
-        if cross.any():
-            x0[cross], y0[cross], x1[cross], y1[cross] = 0.0, 0.0, W, H
-        np.clip(x0, 0.0, W, out=x0)
-        np.clip(x1, 0.0, W, out=x1)
-        np.clip(y0, 0.0, H, out=y0)
-        np.clip(y1, 0.0, H, out=y1)
-        vis = (n_front > 0) & (x1 > x0) & (y1 > y0)
+        lo = np.empty((len(a), 2))  # (M, 2) pixel bounds of each triangle, NaN behind the camera
+        hi = np.empty((len(a), 2))
+        for i, w in enumerate((u, v)):
+            wa, wb, wc = w[a], w[b], w[c]
+            np.minimum(np.minimum(wa, wb, out=lo[:, i]), wc, out=lo[:, i])
+            np.maximum(np.maximum(wa, wb, out=hi[:, i]), wc, out=hi[:, i])
+        np.floor(lo, out=lo)
+        lo -= 1.0
+        np.ceil(hi, out=hi)
+        hi += 2.0
+        if not all_front:
+            n_front = front[a].view(np.int8) + front[b].view(np.int8) + front[c].view(np.int8)
+            cross = (n_front > 0) & (n_front < 3)  # crosses the camera plane: may cover anything
+            lo[cross], hi[cross] = 0.0, self._size
+            lo[n_front == 0], hi[n_front == 0] = 0.0, 0.0  # wholly behind: nothing
+        np.clip(lo, 0.0, self._size, out=lo)
+        np.clip(hi, 0.0, self._size, out=hi)
+        vis = (hi[:, 0] > lo[:, 0]) & (hi[:, 1] > lo[:, 1])
         if not vis.any():
             return empty
         visible = np.bincount(self._tri_part[vis], minlength=n_parts) > 0
-        zv = np.concatenate([z[a[vis]], z[b[vis]], z[c[vis]]])
-        zv = zv[zv > 0]
-        near = float(max(0.5 * zv.min(), 1e-3))
-        far = float(max(2.0 * zv.max(), 4.0 * near))
-        # tiles touched: a 2-D difference array over the tile grid, then a cumulative sum
-        tx0, ty0 = x0[vis].astype(np.int64) // TILE, y0[vis].astype(np.int64) // TILE
-        tx1, ty1 = -(-x1[vis].astype(np.int64) // TILE), -(-y1[vis].astype(np.int64) // TILE)
-        nx = self._ntx + 1
-        idx = np.concatenate([ty0 * nx + tx0, ty1 * nx + tx1, ty0 * nx + tx1, ty1 * nx + tx0])
-        sign = np.repeat(np.array([1.0, 1.0, -1.0, -1.0]), len(tx0))
-        diff = np.bincount(idx, weights=sign, minlength=nx * (self._nty + 1)).reshape(self._nty + 1, nx)
-        tiles = diff.cumsum(axis=0).cumsum(axis=1)[: self._nty, : self._ntx] > 0.5
-        blocks = np.zeros((self._nby * BLOCK, self._nbx * BLOCK), bool)
-        blocks[: self._nty, : self._ntx] = tiles
-        blocks = blocks.reshape(self._nby, BLOCK, self._nbx, BLOCK).any(axis=(1, 3))
+        zf = z if all_front else z[front]
+        near = float(max(0.5 * zf.min(), 1e-3))
+        far = float(max(2.0 * zf.max(), 4.0 * near))
+        # tiles touched: every (tile row, tile column) pair of every bounding box, marked at once
+        t0 = (lo[vis] * (1.0 / TILE)).astype(np.int32)  # bounds are >= 0 and integral: exact floor / ceil
+        t1 = np.ceil(hi[vis] * (1.0 / TILE)).astype(np.int32)
+        nx_t, ny_t = t1[:, 0] - t0[:, 0], t1[:, 1] - t0[:, 1]
+        counts = nx_t * ny_t
+        which = np.repeat(np.arange(len(counts)), counts)
+        k = np.arange(len(which)) - np.repeat(np.cumsum(counts) - counts, counts)
+        w = nx_t[which]
+        tiles = np.zeros(self._nty * self._ntx, bool)
+        tiles[(t0[which, 1] + k // w) * self._ntx + t0[which, 0] + k % w] = True
+        tiles = tiles.reshape(self._nty, self._ntx)
+        blocks = self._blocks_u8  # (any tile of a block) via an area average of 0/255
+        blocks[: self._nty, : self._ntx] = tiles.view(np.uint8) * np.uint8(255)
+        blocks = cv2.resize(blocks, (self._nbx, self._nby), interpolation=cv2.INTER_AREA) > 0
         return Footprint(_rects_from_tiles(blocks, TILE * BLOCK, W, H), tiles, visible, near, far)
 
     # ------------------------------------------------------------------ frame

@@ -491,3 +491,72 @@ def test_camera_from_cameras_jsonl_record_renders(ctx):
     a = _render_alpha(ctx, [Logo(WHITE, center=(-6.0, -14.0), size=(10.0, 4.0))], cam2)
     b = _render_alpha(ctx, [Logo(WHITE, center=(-6.0, -14.0), size=(10.0, 4.0))], cam)
     np.testing.assert_array_equal(a, b)
+
+
+# --------------------------------------------------------------------------- keying and the command line
+def test_green_matte_keys_grass_only():
+    from render.keying import green_matte
+
+    cam = main_camera(320, 192, pan_deg=-8, tilt_deg=20)
+    frame, truth = pitch_frame(cam, 320, 192)
+    m = green_matte(frame)
+    assert m.dtype == np.uint8 and set(np.unique(m)) <= {0, 255}
+    agree = np.mean((m > 0) == (truth > 0))
+    assert agree > 0.97
+    with pytest.raises(ValueError, match=r"frame must be uint8 \(H, W, 3\) BGR"):
+        green_matte(np.zeros((4, 4), np.uint8))
+
+
+def _tiny_clip(tmp_path, n=6, size=(320, 192)):
+    import av
+
+    w, h = size
+    cams = [main_camera(w, h, pan_deg=-8 + i, tilt_deg=20) for i in range(n)]
+    clip = tmp_path / "clip.mp4"
+    with av.open(str(clip), "w") as out:
+        st = out.add_stream("libx264", rate=25)
+        st.width, st.height, st.pix_fmt = w, h, "yuv420p"
+        st.options = {"crf": "12", "preset": "ultrafast"}
+        for cam in cams:
+            vf = av.VideoFrame.from_ndarray(pitch_frame(cam, w, h)[0], format="bgr24")
+            for pkt in st.encode(vf):
+                out.mux(pkt)
+        for pkt in st.encode(None):
+            out.mux(pkt)
+    recs = [{"frame": i, "pts": i / 25, "status": "ok", **c.to_dict(), "confidence": 1.0} for i, c in enumerate(cams)]
+    recs[2] = {"frame": 2, "pts": 0.08, "status": "lost", "K": None, "R": None, "t": None, "H": None, "confidence": 0.0}
+    (tmp_path / "cameras.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    return clip, tmp_path / "cameras.jsonl", cams
+
+
+def _frames(path):
+    import av
+
+    with av.open(str(path)) as c:
+        return [f.to_ndarray(format="bgr24") for f in c.decode(video=0)]
+
+
+@pytest.mark.parametrize("key", ["green", "none"])
+def test_arstream_render_command(tmp_path, key):
+    from arstream.cli import main
+
+    clip, cams_file, cams = _tiny_clip(tmp_path)
+    out = tmp_path / "out.mp4"
+    assert main(["render", str(clip), "--cameras", str(cams_file), "-o", str(out), "--key", key, "-q"]) == 0
+    before, after = _frames(clip), _frames(out)
+    assert len(after) == len(before) == 6
+    logo = default_scene().objects[0]
+    for i in range(6):  # inside the logo: drawn, except on frame 2 ("lost"), which only re-encoding touched
+        mask = np.zeros((192, 320), np.uint8)
+        cv2.fillConvexPoly(mask, np.round(cams[i].project(logo.outline())).astype(np.int32), 1)
+        diff = np.abs(after[i].astype(int) - before[i])[mask > 0].mean()
+        assert (diff < 6.0) if i == 2 else (diff > 30.0), (i, diff)
+
+
+def test_arstream_render_bad_scene_exits_2(tmp_path, capsys):
+    from arstream.cli import main
+
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "logoo"\n')
+    code = main(["render", "x.mp4", "--cameras", "c.jsonl", "--scene", str(tmp_path / "s.toml"), "-o", str(tmp_path / "o.mp4")])
+    assert code == 2
+    assert "object 1: unknown type 'logoo'" in capsys.readouterr().err
