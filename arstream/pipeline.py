@@ -33,8 +33,8 @@ While :meth:`Pipeline.run` runs (in the main thread), SIGINT and SIGTERM stop
 it gracefully between frames: the frames the tracker holds are flushed,
 the encoder is drained, the container trailer written and ``cameras.jsonl``
 closed, then :class:`Interrupted` (a ``KeyboardInterrupt``) is raised with the
-signal number and the :class:`Summary`. A second signal interrupts at once
-(outputs are still closed).
+signal number and the :class:`Summary`. A second signal skips the flush
+(outputs are still closed; signals during the closing itself are ignored).
 
 Live mode (``realtime=True``): the decode thread paces a file to its clock
 (a live source paces itself); the queue to the main thread holds at most one
@@ -691,6 +691,7 @@ class Pipeline:
         self.box = _Mailbox(queue_size, latest_only=realtime)
         self._stop = threading.Event()
         self._signal: int | None = None
+        self._closing = False  # while outputs are finalised, signals are not raised
         self._decode_error: BaseException | None = None
         self.summary = Summary(input=source.path, width=source.width, height=source.height)
         self._stage_ms = collections.Counter()
@@ -739,8 +740,8 @@ class Pipeline:
         def handler(signum, _frame):
             if self._signal is None:
                 self._signal = signum  # graceful: stop between frames
-            else:
-                raise KeyboardInterrupt  # a second signal: stop now
+            elif not self._closing:
+                raise KeyboardInterrupt  # a second signal: stop now (outputs are still closed)
 
         old = {}
         try:
@@ -830,6 +831,7 @@ class Pipeline:
                 failed = True
                 raise
             finally:
+                self._closing = True
                 self._stop.set()
                 self.box.close()
                 decoder.join(timeout=5.0)
