@@ -40,6 +40,19 @@ def _prepare_dir(path: str) -> None:
         raise InputError(f"cannot create output folder {d}: {exc.strerror}") from None
 
 
+def _reason(exc: BaseException) -> str:
+    msg = getattr(exc, "strerror", None) or str(exc).strip() or type(exc).__name__
+    return msg.splitlines()[0]
+
+
+def _format_for(path: str) -> str | None:
+    """The muxer for ``path``'s extension; a clear error for one FFmpeg does not know."""
+    ext = os.path.splitext(path)[1].lower()
+    if not ext:
+        raise InputError(f"cannot write {path}: give the file an extension (.mp4, .mkv, .mov)")
+    return None
+
+
 class VideoSink:
     """Encode BGR frames to H.264 (libx264, yuv420p) with PyAV.
 
@@ -76,7 +89,10 @@ class VideoSink:
         _prepare_dir(self.path)
         self.tmp = atomic_path(self.path)
         self.rate = Fraction(rate).limit_denominator(100000)
-        self.container = av.open(self.tmp, mode="w")
+        try:
+            self.container = av.open(self.tmp, mode="w", format=_format_for(self.path))
+        except (av.error.FFmpegError, OSError, ValueError) as exc:
+            raise InputError(f"cannot write {self.path}: {_reason(exc)}") from None
         self.stream = self.container.add_stream("libx264", rate=self.rate)
         self.stream.width = width + (width % 2)
         self.stream.height = height + (height % 2)

@@ -417,3 +417,11 @@ def test_render_clip_draws_known_cameras(small, tmp_path, key):
     assert len(changed) == 12
     assert max(changed) > 200  # the demo logo / offside line were drawn
     assert changed[3] < 20  # the lost frame: only re-encoding noise
+
+
+@pytest.mark.parametrize("name, words", [("o.xyz", "Could not determine output format"), ("noext", "give the file an extension")])
+def test_bad_output_paths_are_one_line_errors(small, tmp_path, capsys, name, words):
+    assert cli("process", str(small / "clip.mp4"), "-o", str(tmp_path / name), "-q") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert os.listdir(tmp_path) == []
