@@ -11,24 +11,33 @@ Per frame
 ---------
 1. *Footprint* (CPU, numpy): every triangle of the scene is projected with
    the camera (the same lens model as the vertex shader, see
-   :mod:`render.camera_gl`); the 32 x 32 pixel tiles their bounding boxes touch
-   are merged into a few disjoint rectangles. Everything below touches only
-   those rectangles: the cost follows what is drawn, not the frame size.
-2. *Draw* into a multisampled (MSAA) RGBA8 + depth framebuffer, cleared only
-   inside the rectangles. Colours are premultiplied; "over" is
+   :mod:`render.camera_gl`); the 8 x 8 pixel tiles their bounding boxes touch
+   are what the GPU resolves, and 32-pixel rectangles covering those tiles are
+   what the compositor blends. The cost follows what is drawn, not the frame
+   size.
+2. *Draw* into a multisampled (MSAA) RGBA8 + depth framebuffer that is all
+   zero between frames. Colours are premultiplied; "over" is
    ``blend_func = (ONE, ONE_MINUS_SRC_ALPHA)``. On-grass parts first, in scene
    order, without depth test; keyed parts multiply their colour by the grass
    matte, sampled at ``gl_FragCoord`` with a small blur (``matte_softness``
    pixels: the soft matte). Standing parts next, back to front, depth-tested
    and clipped by the pitch plane (``gl_ClipDistance = Z``).
-3. *Resolve* the samples inside the rectangles with a shader into a
-   single-sample RGBA8 framebuffer, swizzled to BGRA (OpenCV order); last
-   frame's rectangles are zeroed in the same draw, so the framebuffer is
-   exactly the overlay.
-4. *One readback*: the rows spanned by the rectangles, full width (so they
-   land contiguously in a preallocated (H, W, 4) array). Rows come out top
-   row first because the projection already flipped y (the one place this is
+3. *Resolve* the samples of the touched tiles with a shader into a
+   single-sample RGBA8 framebuffer, swizzled to BGRA (OpenCV order); tiles
+   drawn last frame but not now are zeroed in the same draw, so that
+   framebuffer is exactly the overlay.
+4. *Undraw*: the frame's triangles are drawn again with a shader that writes
+   zero colour and far depth — exactly the samples the draw touched (same
+   vertex shader, ``invariant gl_Position``) — which returns the
+   multisampled target to zero. On a software rasteriser this is much
+   cheaper than clearing whole tiles.
+5. *One readback*: the rows spanned by the tiles, full width (so they land
+   contiguously in a preallocated (H, W, 4) array). Rows come out top row
+   first because the projection already flipped y (the one place this is
    decided: :func:`render.camera_gl.projection_from_K`).
+
+Lens distortion: cameras with ``dist`` draw the finely tessellated meshes
+(edges <= 0.5 m) distorted per vertex; pinhole cameras draw minimal meshes.
 """
 
 from __future__ import annotations
@@ -49,7 +58,7 @@ from render.scene import Scene, default_scene
 
 __all__ = ["Renderer", "Overlay", "Footprint", "TILE", "BLOCK"]
 
-#: Tile size (pixels) of the footprint grid: the GPU clears and resolves these tiles.
+#: Tile size (pixels) of the footprint grid: the GPU resolves these tiles.
 TILE = 8
 #: Compositing works on rectangles of BLOCK x BLOCK tiles (fewer, larger calls on the CPU).
 BLOCK = 4
@@ -212,7 +221,7 @@ class Footprint(NamedTuple):
         ``TILE * BLOCK`` pixels, clipped to the frame, holding every pixel the
         scene can touch (what the compositor blends)
     tiles : (ny, nx) bool, the :data:`TILE`-pixel tiles the scene can touch
-        (what the GPU clears and resolves: tighter than ``rects``)
+        (what the GPU resolves: tighter than ``rects``)
     visible : (P,) bool per part, at least one triangle in view
     near, far : float, depth range (metres) around the visible geometry
     """
@@ -258,7 +267,6 @@ class Renderer:
             self._setup(scene.samples if samples is None else int(samples))
         self._prev_tiles = np.zeros((self._nty, self._ntx), bool)
         self._prev_rows = (0, 0)
-        self._n_stale = self._n_runs = 0
         self._drawn = None
         self.compositor = Compositor(self.width, self.height)
 
@@ -549,7 +557,6 @@ class Renderer:
         x0, y0, x1, y1 = r.T
         data = np.stack([x0, y0, keep, x1, y0, keep, x1, y1, keep, x0, y0, keep, x1, y1, keep, x0, y1, keep], axis=1)
         self._rect_vbo.write(data.tobytes())
-        self._n_stale, self._n_runs = len(stale), len(runs)
 
     def _draw(self, camera: Camera, fp: Footprint, matte) -> None:
         ctx, rects = self.ctx, fp.rects
