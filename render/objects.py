@@ -630,8 +630,8 @@ class Text3D(SceneObject):
 
     The extrusion is drawn as closely stacked glyph layers (every 2 cm, at
     most 32): the front and back layers in ``color``, the ones between in
-    ``side_color``. Seen from a broadcast camera the layers merge into
-    solid sides.
+    ``side_color`` (three draw calls in all). Seen from a broadcast camera
+    the layers merge into solid sides.
 
     Parameters
     ----------
@@ -683,13 +683,22 @@ class Text3D(SceneObject):
         p00, right = _standing_frame(self.position, self.facing, width, self.elevation + self.height)
         back = -np.array([self.facing[0], self.facing[1], 0.0])
         n = 1 if self.depth <= 0 else min(32, max(2, int(math.ceil(self.depth / 0.02)) + 1))
+        du, dv = width * right, np.array([0.0, 0.0, -self.height])
+
+        def layers(idx):  # one mesh of the layers idx, listed back (largest offset) to front
+            idx = sorted(idx, reverse=True)
+            offs = [(self.depth * i / (n - 1) if n > 1 else 0.0) * back for i in idx]
+            return (Mesh.concat([grid_mesh(p00 + o, du, dv) for o in offs]),
+                    Mesh.concat([grid_mesh(p00 + o, du, dv, math.inf) for o in offs]))
+
+        # three draws: back face, the sides (the layers between), front face; the renderer
+        # sorts standing parts back to front by centroid, so the order follows the camera
+        groups = [([0], self.color)] if n == 1 else [([n - 1], self.color), (list(range(1, n - 1)), self.side_color), ([0], self.color)]
         parts = []
-        for i in range(n):
-            off = (self.depth * i / (n - 1) if n > 1 else 0.0) * back
-            col = self.color if i in (0, n - 1) else self.side_color
-            du, dv = width * right, np.array([0.0, 0.0, -self.height])
-            mesh, coarse = grid_mesh(p00 + off, du, dv), grid_mesh(p00 + off, du, dv, math.inf)
-            parts.append(Part(mesh, _premul(col, self.opacity), tex, False, self.keyed, coarse))
+        for idx, col in groups:
+            if idx:
+                mesh, coarse = layers(idx)
+                parts.append(Part(mesh, _premul(col, self.opacity), tex, False, self.keyed, coarse))
         return parts
 
 

@@ -560,3 +560,25 @@ def test_arstream_render_bad_scene_exits_2(tmp_path, capsys):
     code = main(["render", "x.mp4", "--cameras", "c.jsonl", "--scene", str(tmp_path / "s.toml"), "-o", str(tmp_path / "o.mp4")])
     assert code == 2
     assert "object 1: unknown type 'logoo'" in capsys.readouterr().err
+
+
+def test_no_msaa_and_odd_frame_size(ctx):
+    w, h = 641, 359
+    cam = main_camera(w, h, pan_deg=-5, tilt_deg=22, hfov_deg=40, principal_point=(333.3, 170.2))
+    logo = Logo(WHITE, center=(-6.0, -14.0), size=(10.0, 4.0), rotation=12.0)
+    with Renderer(w, h, Scene([logo], samples=0), ctx=ctx) as r:
+        assert r.samples == 0
+        alpha = r.render(cam).alpha.astype(np.float64) / 255.0
+    assert set(np.unique(alpha)) == {0.0, 1.0}  # no anti-aliasing without samples
+    errs = _corner_errors(cam, alpha, logo.outline(), size=(w, h))
+    assert len(errs) == 4 and max(errs) < 0.75  # aliased edges: half a pixel of quantisation
+
+
+def test_geometry_behind_the_camera(ctx):
+    """A low camera on the pitch: the offside line runs behind it; what is in front is drawn."""
+    cam = main_camera(W, H, center=(0.0, 0.0, 1.7), tilt_deg=5.0, hfov_deg=70.0)
+    line = OffsideLine(x=3.0, width=0.5, opacity=1.0)  # from Y = -34 (behind) to +34 (ahead)
+    alpha = _render_alpha(ctx, [line], cam)
+    assert np.isfinite(alpha).all() and alpha.max() == 1.0
+    far_pt = cam.project(np.array([[3.0, 20.0, 0.0]]))[0]
+    assert alpha[int(round(far_pt[1])), int(round(far_pt[0]))] > 0.5
