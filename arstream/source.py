@@ -320,8 +320,8 @@ class VideoSource:
 
 
 def _reason(exc: BaseException) -> str:
-    msg = str(exc).strip() or type(exc).__name__
-    return msg.splitlines()[0]
+    msg = getattr(exc, "strerror", None) or str(exc).strip() or type(exc).__name__
+    return str(msg).splitlines()[0]
 
 
 def probe(path) -> dict:

@@ -231,7 +231,7 @@ def main() -> None:
     ap.add_argument("--sizes", default="1280x720,1920x1080")
     ap.add_argument("--frames", type=int, default=250)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "arstream-bench"))
+    ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "arstream-bench-pipeline"))
     ap.add_argument("--write", action="store_true", help="write the figures into bench/README.md")
     args = ap.parse_args()
     if args.plain:

@@ -243,6 +243,19 @@ def test_truncated_mp4_processes_what_decodes(clip, tmp_path, capsys):
     assert len(read_jsonl(tmp_path / "c.jsonl")) == n
 
 
+def test_corrupt_packets_are_skipped_and_reported(clip, tmp_path, capsys):
+    data = bytearray((clip / "clip.mp4").read_bytes())
+    rng = np.random.default_rng(0)
+    for start in (len(data) // 3, len(data) // 2):
+        data[start : start + 3000] = rng.integers(0, 256, 3000, dtype=np.uint8).tobytes()
+    (tmp_path / "bad.mp4").write_bytes(bytes(data))
+    rc = cli("process", str(tmp_path / "bad.mp4"), "-o", str(tmp_path / "o.mp4"), "--cameras-out", str(tmp_path / "c.jsonl"), "-q")
+    err = capsys.readouterr().err
+    assert rc == 1 and "skipped an undecodable packet" in err and "damaged" in err
+    n = video_facts(str(tmp_path / "o.mp4"))["frames"]
+    assert 0 < n < 25 and len(read_jsonl(tmp_path / "c.jsonl")) == n
+
+
 def test_clip_without_pitch_is_all_lost_and_still_written(tmp_path):
     rng = np.random.default_rng(0)
     with VideoSink(tmp_path / "crowd.mp4", 320, 180, 25) as sink:
