@@ -536,7 +536,7 @@ def _frames(path):
         return [f.to_ndarray(format="bgr24") for f in c.decode(video=0)]
 
 
-@pytest.mark.parametrize("key", ["green", "none"])
+@pytest.mark.parametrize("key", ["auto", "green", "none"])
 def test_arstream_render_command(tmp_path, key):
     from arstream.cli import main
 

@@ -7,8 +7,6 @@ import importlib.util
 import json
 import sys
 
-import numpy as np
-
 ORDER = 40
 
 DESCRIPTION = """\
@@ -24,8 +22,8 @@ docs/render.md); with no --scene the demo scene is drawn (a logo on the
 grass and an offside line). On-grass graphics are keyed by a grass matte so
 players pass in front of them: --key auto (default) uses the pipeline's grass
 detector when this build has one and a green chroma key otherwise; --key
-green always uses the chroma key; --key none draws over everything. (The
-chroma-key path writes video only: the input's audio is not copied.)
+green always uses the chroma key; --key none draws over everything. The
+output keeps the input's frame rate and timestamps; its audio is copied.
 """
 
 EPILOG = """\
@@ -63,19 +61,14 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     import render
-
-    scene = render.load_scene(args.scene) if args.scene else render.default_scene()  # bad scene: exit 2 before decoding
-    try:
-        from arstream.pipeline import render_clip
-    except ImportError:
-        render_clip = None
-    has_detector = importlib.util.find_spec("arstream.detect") is not None
-    if render_clip is None or args.key == "green" or (args.key == "auto" and not has_detector):
-        return _render_loop(args, scene, green_key=args.key != "none")
-
-    from arstream.pipeline import Interrupted
+    from arstream.pipeline import Interrupted, render_clip
     from arstream.progress import Progress
 
+    scene = render.load_scene(args.scene) if args.scene else render.default_scene()  # bad scene: exit 2 before decoding
+    if args.key == "auto":
+        key = "detector" if importlib.util.find_spec("arstream.detect") is not None else "green"
+    else:
+        key = None if args.key == "none" else args.key
     bar = Progress(None, label="render", stream=sys.stderr)
     if args.quiet:
         bar.enabled = False
@@ -86,7 +79,7 @@ def run(args) -> int:
                 args.cameras,
                 args.output,
                 scene=scene,
-                key=args.key != "none",
+                key=key,
                 crf=args.crf,
                 preset=args.preset,
                 audio=not args.no_audio,
@@ -105,52 +98,11 @@ def _report(summary, args) -> int:
     else:
         print(summary.line())
     for stage in summary.missing:
-        if stage == "detect" and args.key == "none":
-            continue
-        print(f"arstream: warning: no {stage} stage in this build: graphics are not keyed (players do not pass in front)", file=sys.stderr)
+        what = "graphics are not keyed (players do not pass in front)" if stage == "detect" else "frames pass through it unchanged"
+        print(f"arstream: warning: no {stage} stage in this build: {what}", file=sys.stderr)
     if summary.errors:
         for e in summary.errors:
             print(f"arstream: warning: {e}", file=sys.stderr)
         print(f"arstream: error: the input is damaged; {summary.frames} frames were rendered and written", file=sys.stderr)
         return 1
     return 0
-
-
-def _render_loop(args, scene, *, green_key: bool) -> int:
-    """Decode -> (chroma key) -> render -> composite -> encode in one loop (video only)."""
-    import render
-    from geometry.camera import Camera
-    from render.keying import green_matte
-
-    from arstream.errors import ArstreamError, InputError
-    from arstream.sink import VideoSink, read_jsonl
-    from arstream.source import VideoSource
-
-    cams = {}
-    for rec in read_jsonl(args.cameras):
-        if rec.get("K") is None or rec.get("status") == "lost":
-            continue
-        try:
-            cams[int(rec["frame"])] = Camera.from_dict(rec)
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"{args.cameras}: bad camera record for frame {rec.get('frame')!r} ({exc})") from None
-    n = drawn = 0
-    with VideoSource(args.input) as src:
-        try:
-            renderer = render.Renderer(src.width, src.height, scene)
-        except render.GLContextError as exc:
-            raise ArstreamError(str(exc)) from None
-        matte = np.empty((src.height, src.width), np.uint8) if green_key else None
-        with renderer, VideoSink(args.output, src.width, src.height, src.rate, crf=args.crf, preset=args.preset, time_base=src.time_base) as sink:
-            for frame in src:
-                cam = cams.get(frame.index)
-                if cam is not None:
-                    renderer.draw(frame.image, cam, green_matte(frame.image, out=matte) if green_key else None)
-                    drawn += 1
-                sink.write(frame.image, frame.pts)
-                n += 1
-    summary = {"input": args.input, "output": args.output, "frames": n, "drawn": drawn, "errors": list(src.errors)}
-    print(json.dumps(summary, indent=2) if args.json else f"{n} frames, {drawn} with a camera -> {args.output}")
-    for e in src.errors:
-        print(f"arstream: warning: {e}", file=sys.stderr)
-    return 1 if src.errors else 0
