@@ -71,6 +71,8 @@ __all__ = [
     "Stage",
     "DetectStage",
     "MatteStage",
+    "ThreadedStage",
+    "own_detections",
     "TrackStage",
     "CamerasInStage",
     "RenderStage",
@@ -104,6 +106,8 @@ class Item:
     estimate : CameraEstimate once the tracker has given it
     drawn : True when graphics were composited onto the frame
     timings : stage name -> milliseconds spent on this frame
+    owned : True when ``detections`` and ``matte`` are private copies (not views
+        into buffers the detector reuses)
     """
 
     frame: Frame
@@ -112,6 +116,7 @@ class Item:
     estimate: CameraEstimate | None = None
     drawn: bool = False
     timings: dict = field(default_factory=dict)
+    owned: bool = False
 
     @property
     def index(self) -> int:
@@ -172,6 +177,95 @@ class DetectStage(Stage):
         return [item]
 
 
+def own_detections(item: Item) -> None:
+    """Replace the item's detections (and matte) by private deep copies, so the
+    detector may reuse its buffers for the next frame while this one is used."""
+    import copy
+
+    if item.detections is not None and not item.owned:
+        item.detections = copy.deepcopy(item.detections)
+        item.matte = getattr(item.detections, "grass_mask", None)
+    elif item.matte is not None and not item.owned:
+        item.matte = item.matte.copy()
+    item.owned = True
+
+
+class ThreadedStage(Stage):
+    """Run a one-in, one-out stage on a worker thread, one frame ahead.
+
+    ``process(item i)`` hands frame i to the worker and returns frame i-1's
+    result, so the main thread works on frame i-1 (tracking, rendering)
+    while the worker works on frame i (detection): the two cores both work
+    even when the main thread is the slowest part. Adds one frame of latency.
+    ``detach`` runs in the worker after the stage (default
+    :func:`own_detections`: copy the buffers the detector reuses).
+    """
+
+    self_timed = True
+
+    def __init__(self, stage: Stage, detach: Callable[[Item], None] | None = own_detections):
+        import queue
+
+        self.stage = stage
+        self.name = stage.name
+        self.available = getattr(stage, "available", True)
+        self.detach = detach
+        self.inq: queue.Queue = queue.Queue(maxsize=1)
+        self.outq: queue.Queue = queue.Queue()
+        self.pending = 0
+        self.thread = threading.Thread(target=self._run, name=f"arstream-{stage.name}", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while True:
+            item = self.inq.get()
+            if item is None:
+                return
+            try:
+                t0 = time.perf_counter()
+                res = self.stage.process(item)
+                if len(res) != 1 or res[0] is not item:
+                    raise ArstreamError(f"stage {self.name} must return exactly its input item to run on a thread")
+                if self.detach is not None:
+                    self.detach(item)
+                item.timings[self.name] = item.timings.get(self.name, 0.0) + (time.perf_counter() - t0) * 1e3
+                self.outq.put((item, None))
+            except BaseException as exc:
+                self.outq.put((None, exc))
+
+    def _result(self) -> Item:
+        item, exc = self.outq.get()
+        self.pending -= 1
+        if exc is not None:
+            raise exc
+        return item
+
+    def process(self, item: Item) -> list[Item]:
+        if not self.thread.is_alive():
+            raise ArstreamError(f"the {self.name} worker thread has stopped")
+        self.inq.put(item)
+        self.pending += 1
+        return [self._result()] if self.pending > 1 else []
+
+    def flush(self) -> list[Item]:
+        out = []
+        while self.pending > 0:
+            out.append(self._result())
+        return out + self.stage.flush()
+
+    def close(self) -> None:
+        if self.thread.is_alive():
+            while True:  # unblock a worker waiting to hand over, then stop it
+                try:
+                    self.inq.put(None, timeout=0.1)
+                    break
+                except Exception:
+                    if not self.thread.is_alive():
+                        break
+            self.thread.join(timeout=10.0)
+        self.stage.close()
+
+
 class MatteStage(Stage):
     """A grass matte from a function of the BGR frame (e.g. ``render.keying.green_matte``),
     for keying without the detector.
@@ -229,7 +323,7 @@ class TrackStage(Stage):
         self.held[item.index] = item
         out = self._release(estimates)
         if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
-            if item.matte is not None:
+            if item.matte is not None and not item.owned:
                 item.matte = item.matte.copy()  # the detector reuses its buffers
             item.detections = None
             if item.frame.yuv is not None:
@@ -757,12 +851,12 @@ class Pipeline:
         for stage in self.stages[start:]:
             nxt = []
             name = stage.name
+            self_timed = getattr(stage, "self_timed", False)
             for it in items:
                 t0 = time.perf_counter()
                 res = stage.process(it)
-                dt = (time.perf_counter() - t0) * 1e3
-                it.timings[name] = it.timings.get(name, 0.0) + dt
-                self._stage_ms[name] += dt
+                if not self_timed:
+                    it.timings[name] = it.timings.get(name, 0.0) + (time.perf_counter() - t0) * 1e3
                 nxt.extend(res)
             items = nxt
             if not items:
@@ -773,6 +867,8 @@ class Pipeline:
     def _done(self, item: Item) -> None:
         s = self.summary
         s.frames += 1
+        for k, v in item.timings.items():
+            self._stage_ms[k] += v
         est = item.estimate
         if est is not None and est.status != "lost":
             s.tracked += 1
@@ -822,7 +918,6 @@ class Pipeline:
                         continue
                     item = Item(frame)
                     item.timings["decode"] = frame.decode_ms
-                    self._stage_ms["decode"] += frame.decode_ms
                     self._push([item])
                 if self._decode_error is not None:
                     raise self._decode_error
@@ -864,6 +959,13 @@ class Pipeline:
 
 
 # --------------------------------------------------------------------------- library API
+def _overlapped(stage: Stage, overlap: bool) -> Stage:
+    """``stage`` on a worker thread one frame ahead (when it does work), else as is."""
+    if overlap and getattr(stage, "available", True):
+        return ThreadedStage(stage)
+    return stage
+
+
 def _has(module: str) -> bool:
     return importlib.util.find_spec(module) is not None
 
@@ -916,6 +1018,7 @@ def process(
     progress: Callable | None = None,
     max_frames: int | None = None,
     handle_signals: bool = True,
+    overlap: bool = True,
 ) -> Summary:
     """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
 
@@ -935,6 +1038,7 @@ def process(
     progress : callable(done, total), optional
     max_frames : stop after this many frames
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
+    overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
 
     Returns
     -------
@@ -955,7 +1059,7 @@ def process(
         W, H = src.width, src.height
         stages = _build(
             [
-                lambda: DetectStage(W, H),
+                lambda: _overlapped(DetectStage(W, H), overlap),
                 lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect")),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
@@ -982,6 +1086,7 @@ def render_clip(
     audio: bool = True,
     progress: Callable | None = None,
     handle_signals: bool = True,
+    overlap: bool = True,
 ) -> Summary:
     """Draw a scene on a clip with cameras read from a ``cameras.jsonl`` (no solving).
 
@@ -990,7 +1095,8 @@ def render_clip(
     graphics (players pass in front of them): True or "detector" runs the
     detector (no keying when this build has none); "green" a chroma key on the
     grass hue; a callable(image_bgr) -> (H, W) uint8 matte your own; False or
-    None no keying.
+    None no keying. ``overlap`` computes the matte of frame i+1 on a worker
+    thread while frame i is rendered.
     """
     _check_output(output, input)
     if key is True:
@@ -1000,11 +1106,11 @@ def render_clip(
     with _open(input) as src:
         W, H = src.width, src.height
         if key == "detector":
-            make_key = lambda: DetectStage(W, H)  # noqa: E731
+            make_key = lambda: _overlapped(DetectStage(W, H), overlap)  # noqa: E731
         elif key == "green":
-            make_key = lambda: MatteStage.green(W, H)  # noqa: E731
+            make_key = lambda: _overlapped(MatteStage.green(W, H), overlap)  # noqa: E731
         elif callable(key):
-            make_key = lambda: MatteStage(key)  # noqa: E731
+            make_key = lambda: _overlapped(MatteStage(key), overlap)  # noqa: E731
         else:
             make_key = lambda: None  # noqa: E731
         stages = _build(

@@ -438,3 +438,16 @@ def test_bad_output_paths_are_one_line_errors(small, tmp_path, capsys, name, wor
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert os.listdir(tmp_path) == []
+
+
+def test_overlapped_stage_gives_identical_output(small, tmp_path):
+    """The matte of frame i+1 computed on a worker thread while frame i renders: same bytes."""
+    outs = []
+    for overlap in (False, True):
+        out = tmp_path / f"o{int(overlap)}.mp4"
+        s = arstream.render_clip(small / "clip.mp4", small / "truth.jsonl", out, key="green", overlap=overlap)
+        assert s.frames == 12 and s.stage_ms["key"] > 0
+        with av.open(str(out)) as c:
+            outs.append([f.to_ndarray() for f in c.decode(video=0)])
+    assert len(outs[0]) == len(outs[1]) == 12
+    assert all(np.array_equal(a, b) for a, b in zip(*outs))
