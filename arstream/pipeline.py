@@ -875,7 +875,10 @@ class Pipeline:
         if est is not None:
             self._conf += float(est.confidence)
         if self.progress is not None:
-            self.progress(s.frames, self.source.frame_count)
+            total = self.source.frame_count
+            if self.max_frames is not None:
+                total = min(total, self.max_frames) if total else self.max_frames
+            self.progress(s.frames, total)
 
     def _flush(self) -> None:
         for i, stage in enumerate(self.stages):
