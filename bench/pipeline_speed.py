@@ -210,6 +210,24 @@ def table(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def verdicts(results: list[dict]) -> str:
+    """The issue's targets, met or not, from the figures."""
+    out = []
+    for r in results:
+        w, h = (int(v) for v in r["size"].split("x"))
+        if h == 720:
+            out.append(f"- 720p: {r['process_fps']:.1f} fps, target >= 60: {'met' if r['process_fps'] >= 60 else 'NOT met'}")
+            out.append(f"- 720p: {r['ratio_run']:.2f}x the wall time of plain decode+encode (whole command {r['ratio_wall']:.2f}x), target <= 1.5x: {'met' if r['ratio_run'] <= 1.5 else 'NOT met'}")
+            cpu_fps = 2000.0 / r["process_cpu_ms"] if r["process_cpu_ms"] > 0 else 0.0
+            out.append(f"- 720p: {r['process_cpu_ms']:.1f} CPU ms per frame, i.e. at most {cpu_fps:.0f} fps on two idle cores")
+        if h == 1080:
+            out.append(f"- 1080p: {r['process_fps']:.1f} fps, target >= 25: {'met' if r['process_fps'] >= 25 else 'NOT met'}; {r['process_cpu_ms']:.1f} CPU ms per frame (at most {2000.0 / max(r['process_cpu_ms'], 1e-9):.0f} fps on two idle cores)")
+        peak = max(r["rss_process"], r["rss_process_x4"])
+        if h >= 1080:
+            out.append(f"- 1080p peak memory {peak:.0f} MiB (clip x4: {r['rss_process_x4']:.0f} MiB), target <= 1 GB: {'met' if peak <= 1024 else 'NOT met'}")
+    return "\n".join(out)
+
+
 def write_section(text: str) -> None:
     path = os.path.join(ROOT, "bench", "README.md")
     old = open(path, encoding="utf-8").read() if os.path.exists(path) else "# Benchmarks\n"
@@ -246,7 +264,7 @@ def main() -> None:
         results.append(r)
     load = os.getloadavg()
     info = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, load average {load[0]:.1f} at the end"
-    text = table(results)
+    text = table(results) + "\n\nTargets (issue 7):\n\n" + verdicts(results)
     missing = sorted({m for r in results for m in r["missing"]})
     note = f"\n\nStages missing from this build (frames passed through): {', '.join(missing)}." if missing else ""
     print(text + note)
