@@ -362,6 +362,68 @@ class LineIndex:
 
 # ---------------------------------------------------------------------------
 @dataclass
+class LMResult:
+    """Solution of :func:`robust_lm`: parameters, residuals and Jacobian at the solution."""
+
+    x: np.ndarray
+    fun: np.ndarray
+    jac: np.ndarray
+    cost: float
+    iterations: int
+
+
+def robust_lm(fun, jac, x0: np.ndarray, *, f_scale: float = 1.0, max_iter: int = 12, tol: float = 1e-10) -> LMResult:
+    """Levenberg-Marquardt with the soft-L1 loss by iteratively reweighted least squares.
+
+    Minimises ``sum 2 (sqrt(1 + (r_i / s)^2) - 1)`` for residuals ``r = fun(x)``
+    with analytic Jacobian ``jac(x)`` (N, k). Same problem as scipy's
+    ``least_squares(loss="soft_l1")``; written out because for the few
+    parameters of a camera (4-8) and a few hundred residuals, scipy's
+    per-call overhead is most of the per-frame cost in tracking.
+    """
+    s2 = f_scale * f_scale
+
+    def rho(r):
+        return float(np.sum(2.0 * (np.sqrt(1.0 + r * r / s2) - 1.0)))
+
+    x = np.array(x0, dtype=np.float64)
+    r = fun(x)
+    cost = rho(r)
+    lam = 1e-3
+    J = jac(x)
+    it = 0
+    for it in range(1, max_iter + 1):
+        cost_prev = cost
+        w = 1.0 / np.sqrt(1.0 + r * r / s2)
+        A = J.T @ (w[:, None] * J)
+        g = J.T @ (w * r)
+        D = np.diag(np.maximum(np.diag(A), 1e-12))
+        improved = False
+        while lam < 1e8:
+            try:
+                dx = np.linalg.solve(A + lam * D, -g)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            xn = x + dx
+            rn = fun(xn)
+            cn = rho(rn)
+            if cn < cost:
+                x, r, cost = xn, rn, cn
+                lam = max(lam * 0.2, 1e-9)
+                improved = True
+                break
+            lam *= 10
+        if not improved:
+            break
+        J = jac(x)
+        if np.linalg.norm(dx) < tol * (np.linalg.norm(x) + tol) or cost_prev - cost < 1e-6 * cost_prev:
+            break
+    return LMResult(x=x, fun=r, jac=J, cost=cost, iterations=it)
+
+
+# ---------------------------------------------------------------------------
+@dataclass
 class Refinement:
     """Result of :func:`refine_camera`.
 
@@ -486,7 +548,7 @@ def refine_camera(
 
     def camera_of(R, C, f, k1) -> Camera:
         K = np.array([[f, 0, pp[0]], [0, f, pp[1]], [0, 0, 1.0]])
-        return Camera(K=K, R=R, t=-R @ C, dist=(k1,) if k1 else ())
+        return Camera.trusted(K, R, -R @ C, (k1,) if k1 else ())
 
     cam = cam0
     res_fin = None
@@ -553,7 +615,7 @@ def refine_camera(
                 J[:, i_k] = f * r2 * (nrm[:, 0] * u + nrm[:, 1] * v)
             return J
 
-        res_fin = scipy.optimize.least_squares(fun, theta0(), jac=jac, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=30)
+        res_fin = robust_lm(fun, jac, theta0(), f_scale=1.0, max_iter=12)
         R, C_cur, f, k1_cur = unpack(res_fin.x)
         C_cur = np.array(C_cur, dtype=np.float64)
         logf = float(np.log(f))

@@ -40,7 +40,7 @@ from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, refine_camera, solve_from_circle
-from geometry.camera import PTZ, Camera, camera_from_ptz, ptz_from_camera
+from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
 
@@ -66,8 +66,9 @@ class TrackerConfig:
 
 def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
     """(pan, tilt, roll, log f) of ``cam`` about ``centre``."""
-    _, p = ptz_from_camera(Camera(K=cam.K, R=cam.R, t=-cam.R @ centre, dist=cam.dist))
-    return np.array([p.pan, p.tilt, p.roll, np.log(p.f)])
+    # the angles of a rotation do not depend on the centre it turns about
+    pan, tilt, roll = ptr_from_rotation(cam.R)
+    return np.array([pan, tilt, roll, np.log(cam.focal)])
 
 
 def _wrap(a: float) -> float:
@@ -419,3 +420,27 @@ class Tracker:
                     self._k1_f = r.camera.focal
 
     _k1_f: float | None = None
+
+
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True) -> CameraEstimate:
+    """The camera of a single still (no temporal help): initialise from the centre
+    circle or from line correspondences, then refine (with k1 when the view has
+    enough line support). Returns a "lost" estimate when nothing fits."""
+    W, H = size
+    pitch = pitch or PitchModel()
+    pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
+        return CameraEstimate.lost(0, 0.0, reason="no pitch")
+    index = LineIndex(detections.line_points)
+    r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
+    if r is None or r.confidence < TrackerConfig.init_accept:
+        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
+    if estimate_k1 and r.n_visible >= 250:
+        try:
+            rk = refine_camera(r.camera, index, size, model, estimate_k1=True, radii=(4.0, 2.5))
+            if rk.confidence >= r.confidence - 0.01:
+                r = rk
+        except ValueError:
+            pass
+    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, {"rms": r.rms, "n_visible": r.n_visible})

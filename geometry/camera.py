@@ -51,6 +51,7 @@ __all__ = [
 
 # Camera axes in the world at pan = tilt = roll = 0: image x along +X, image y
 # along -Z (down), optical axis along +Y (toward the far touchline).
+_EYE3 = np.eye(3)
 _R_BASE = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
@@ -80,7 +81,7 @@ def _check_R(R) -> np.ndarray:
     R = np.asarray(R, dtype=np.float64)
     if R.shape != (3, 3) or not np.all(np.isfinite(R)):
         raise ValueError(f"R must be a finite 3x3 matrix, got shape {R.shape}")
-    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+    if not np.abs(R @ R.T - _EYE3).max() <= 1e-6 or np.linalg.det(R) < 0:
         raise ValueError("R must be a rotation (orthonormal, det +1)")
     return R
 
@@ -115,6 +116,18 @@ class Camera:
         object.__setattr__(self, "R", R.copy())
         object.__setattr__(self, "t", t.copy())
         object.__setattr__(self, "dist", dist)
+
+    @classmethod
+    def trusted(cls, K: np.ndarray, R: np.ndarray, t: np.ndarray, dist: tuple = ()) -> "Camera":
+        """Build without validation, for hot loops whose inputs are valid by
+        construction (K upper triangular, R a rotation): float64 arrays of the
+        right shapes; the arrays are not copied."""
+        cam = object.__new__(cls)
+        object.__setattr__(cam, "K", K)
+        object.__setattr__(cam, "R", R)
+        object.__setattr__(cam, "t", t)
+        object.__setattr__(cam, "dist", tuple(float(k) for k in dist))
+        return cam
 
     # --- derived quantities -------------------------------------------------
     @property
@@ -403,7 +416,9 @@ def camera_from_ptz(center, ptz: PTZ, principal_point, *, dist: tuple = ()) -> C
         raise ValueError(f"center must be (3,), got {c.shape}")
     R = rotation_from_ptr(ptz.pan, ptz.tilt, ptz.roll)
     K = intrinsic_matrix(ptz.f, principal_point[0], principal_point[1])
-    return Camera(K=K, R=R, t=-R @ c, dist=dist)
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(K)) and all(np.isfinite(dist))):
+        raise ValueError("camera_from_ptz needs finite centre, angles, focal length and distortion")
+    return Camera.trusted(K, R, -R @ c, tuple(dist))  # valid by construction
 
 
 def ptz_from_camera(cam: Camera) -> tuple[np.ndarray, PTZ]:
