@@ -187,6 +187,8 @@ class LaserCalibration:
     stage : str, ``"refined"`` or ``"initial"``
     model : str, intrinsics model (``"fixed"`` when ``K`` was given)
     n_stripe_points : int
+    skipped : tuple of int, images left out (outline not clear enough); the
+        per-image fields above follow the images that were used
     """
 
     K: np.ndarray
@@ -202,6 +204,7 @@ class LaserCalibration:
     stage: str
     model: str
     n_stripe_points: int = 0
+    skipped: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -790,6 +793,7 @@ def calibrate(
     square_pixels: bool = False,
     zero_skew: bool = True,
     channel: str = "red",
+    min_support: float = 0.9,
     refine: bool = True,
     max_nfev: int = 100,
 ) -> LaserCalibration:
@@ -822,6 +826,10 @@ def calibrate(
         are estimated)
     square_pixels, zero_skew : intrinsics model (as in :mod:`calib.sphere`)
     channel : laser colour for extraction ("red", "green", "blue", "grey")
+    min_support : float, images only: an image whose outline has edge points
+        on less than this fraction of its angle (occlusion, clutter touching
+        the ball) is skipped (listed in ``skipped``); an image where no stripe
+        is found counts as an image without stripe
     refine : bool, run step 4
     max_nfev : int, iteration cap of the refinement
 
@@ -855,6 +863,7 @@ def calibrate(
     if edge_points is not None and len(edge_points) != M:
         raise ValueError(f"edge_points must hold one entry per sphere image: {M} images, {len(edge_points)} entries")
     conic_input = all(_is_conic_like(s) for s in sphere_images)
+    skipped: list[int] = []
     if conic_input:
         if stripe_points is None:
             raise ValueError("stripe_points are required when outlines are given as conics")
@@ -880,13 +889,22 @@ def calibrate(
                 out = fit_sphere_outline(img)
             except ValueError as exc:
                 raise ValueError(f"sphere_images[{j}]: {exc}") from None
+            if out.support < min_support:
+                skipped.append(j)
+                continue
             conics.append(out.conic)
             edges.append(out.edge_points)
             if stripe_points is not None:
                 stripes.append(stripe_points[j])
             else:
                 mask = _inside_mask(np.asarray(img).shape[:2], out.conic, shrink=1.5)
-                stripes.append(extract_stripe(img, channel=channel, mask=mask))
+                found = extract_stripe(img, channel=channel, mask=mask)
+                stripes.append(found if len(found) >= 5 else None)
+        if len(conics) < (1 if fix_K else 3):
+            raise ValueError(
+                f"only {len(conics)} of {M} images show a clear sphere outline (support >= {min_support:.0%}; "
+                f"skipped {skipped}): too few"
+            )
     # stripes: validate, drop the empty ones (None)
     str_list = []
     for j, s in enumerate(stripes):
@@ -955,6 +973,7 @@ def calibrate(
         stage=stage,
         model=model_out,
         n_stripe_points=int(sum(len(s) for s in str_list if s is not None)),
+        skipped=tuple(skipped),
     )
 
 

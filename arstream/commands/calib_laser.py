@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
         "stripe_rms_px": res.stripe_rms,
         "plane_rms": res.plane_rms,
         "n_stripe_points": res.n_stripe_points,
+        "skipped_images": list(res.skipped),
         "K_spheres": res.K_spheres.tolist(),
         "plane_init": {"normal": res.plane_init.normal.tolist(), "d": res.plane_init.d},
     }
