@@ -94,6 +94,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import dataclasses
 import glob
 import hashlib
 import json
@@ -165,11 +166,6 @@ class Clip:
 
 def _is_video(path: str) -> bool:
     return os.path.splitext(path)[1].lower() in VIDEO_EXTENSIONS
-
-
-def _hidden(path: str, root: str) -> bool:
-    rel = os.path.relpath(path, root)
-    return any(part.startswith(".") for part in rel.split(os.sep) if part not in (".", ".."))
 
 
 def _inside(path: str, folder: str | None) -> bool:
@@ -453,9 +449,13 @@ RESULT_FIELDS = ("name", "input", "status", "frames", "tracked", "share_tracked"
 _PROGRESS_SINK = None  # set in local workers by _init_local_worker: a multiprocessing queue
 
 
-def _init_local_worker(progress_queue) -> None:
-    """Initializer of the local pool's workers: the driver alone handles Ctrl-C."""
+def _init_local_worker(progress_queue, cv_threads: int) -> None:
+    """Initializer of the local pool's workers: the driver alone handles Ctrl-C; OpenCV
+    shares the cores with the other workers (``cv_threads`` each)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import cv2
+
+    cv2.setNumThreads(cv_threads)
     global _PROGRESS_SINK
     if progress_queue is not None:
         progress_queue.cancel_join_thread()  # progress is best effort: never wait for it at exit
@@ -604,6 +604,9 @@ class BatchProgress:
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
+    def copy(self) -> "BatchProgress":
+        return dataclasses.replace(self, running=dict(self.running))
+
     @property
     def fraction(self) -> float:
         """Share of the batch done: finished clips plus the running clips' shares
@@ -747,7 +750,8 @@ class _LocalEngine:
     def _start(self) -> None:
         if self.want_progress:  # a fresh queue: a dead worker may have held the old one's lock
             self.queue = self.ctx.Queue()
-        self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=self.ctx, initializer=_init_local_worker, initargs=(self.queue,))
+        cv_threads = max(1, _cores() // self.workers)
+        self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=self.ctx, initializer=_init_local_worker, initargs=(self.queue, cv_threads))
 
     def capacity(self) -> int:
         return self.workers
@@ -829,6 +833,19 @@ def _import_ray():
     return ray
 
 
+def _check_reachable(address: str, timeout: float = 5.0) -> None:
+    """A clear error now for ``host:port`` (or ``ray://host:port``) where nothing listens
+    (Ray itself would retry for minutes). Other forms (``auto``) are left to Ray."""
+    hostport = address.split("://", 1)[1] if "://" in address else address
+    host, sep, port = hostport.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as exc:
+        raise ArstreamError(f"no Ray cluster at {address}: cannot connect to {host}:{port} ({_first_line(exc)})") from None
+
+
 class _RayEngine:
     """One Ray task per clip (``num_cpus=1``, retried once if its worker dies)."""
 
@@ -841,6 +858,7 @@ class _RayEngine:
             kw = dict(log_to_driver=False, logging_level="error", configure_logging=True)
             try:
                 if address:
+                    _check_reachable(address)
                     ray.init(address=address, **kw)
                 else:
                     ray.init(num_cpus=workers, include_dashboard=False, **kw)
@@ -1043,11 +1061,11 @@ def run(
             if rec is not None:
                 records[clip.name] = dict(rec, skipped=True)
                 if on_clip is not None:
-                    on_clip(records[clip.name])
+                    on_clip(dict(records[clip.name]))
             elif os.path.realpath(clip.video(out_dir)) == os.path.realpath(clip.input) or os.path.realpath(clip.cameras(out_dir)) == os.path.realpath(clip.input):
                 records[clip.name] = _record(clip.name, clip.input, "failed", error=f"its output {clip.video(out_dir)} would overwrite the input")
                 if on_clip is not None:
-                    on_clip(records[clip.name])
+                    on_clip(dict(records[clip.name]))
             else:
                 todo.append({"input": clip.input, "name": clip.name, "out_dir": out_dir, "params": params, "attempt": 0})
 
@@ -1069,7 +1087,7 @@ def run(
             summary.workers = 0
             s = finish()
             if progress is not None:
-                progress(state)
+                progress(state.copy())
             return s
 
         if engine == "local":
@@ -1104,7 +1122,7 @@ def run(
                         frames_done += res.get("frames", 0)
                         state.clips_done += 1
                         if on_clip is not None:
-                            on_clip(res)
+                            on_clip(dict(res))
                     if signals.count >= 2 and running:
                         abandoned = True
                         break
@@ -1116,7 +1134,7 @@ def run(
                                 state.running[name] = dt
                         state.frames = frames_done + sum(d for d, _ in state.running.values())
                         state.seconds = time.perf_counter() - t_start
-                        progress(state)
+                        progress(state.copy())
         except BaseException:
             abandoned = True  # e.g. KeyboardInterrupt with handle_signals=False
             raise
@@ -1133,7 +1151,7 @@ def run(
                 finish()
         if progress is not None:
             state.frames, state.running, state.seconds = frames_done, {}, summary.seconds
-            progress(state)
+            progress(state.copy())
         if summary.interrupted is not None:
             raise BatchInterrupted(summary.interrupted, summary)
         return summary

@@ -182,8 +182,12 @@ def test_resume_after_an_interrupted_batch(archive, local_out, tmp_path):
     work.mkdir(parents=True)
     (work / ".b__clip.partial.mp4").write_bytes(b"\0" * 1000)
     a_mtime = os.stat(out / "a__clip.mp4").st_mtime_ns
-    s = batch.run([archive / "a", archive / "b"], out, workers=2, handle_signals=False)
+    seen = []
+    s = batch.run([archive / "a", archive / "b"], out, workers=2, handle_signals=False, progress=seen.append)
     recs = by_name(s)
+    last = seen[-1]  # the whole batch's progress
+    assert (last.clips_total, last.clips_done, last.clips_skipped, last.frames, last.running) == (2, 2, 1, FRAMES, {})
+    assert last.fraction == 1.0 and all(0.0 <= p.fraction <= 1.0 for p in seen)
     assert recs["a__clip"]["skipped"] and not recs["b__clip"]["skipped"]
     assert recs["b__clip"]["status"] == "ok" and s.exit_code == 0
     assert os.stat(out / "a__clip.mp4").st_mtime_ns == a_mtime
@@ -326,6 +330,19 @@ def test_ray_cli_joins_an_existing_cluster(archive, local_out, ray_session, tmp_
     assert res["engine"] == "ray" and res["all_ok"]
     local = by_name(local_out[1])
     assert [result(c) for c in res["clips"]] == [result(local[n]) for n in ("a__clip", "b__clip")]
+
+
+def test_ray_unreachable_address_is_a_clear_error(archive, tmp_path):
+    pytest.importorskip("ray")
+    r = subprocess.run(
+        [sys.executable, "-m", "arstream.cli", "batch", str(archive / "a"), "--out", str(tmp_path / "out"), "--engine", "ray", "--address", "127.0.0.1:1"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 1
+    assert r.stderr.strip().splitlines()[-1].startswith("arstream: error: no Ray cluster at 127.0.0.1:1")
 
 
 def test_ray_missing_names_the_extra(archive, tmp_path, monkeypatch):
