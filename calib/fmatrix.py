@@ -57,7 +57,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
-from scipy.spatial.transform import Rotation
 
 from geometry.homography import homography_from_points, normalize_homography
 from geometry.lines import hartley_normalization
@@ -113,7 +112,9 @@ class FundamentalResult:
         The estimator that produced ``F`` (e.g. ``"six_point/projective"``,
         ``"plane_parallax"``, ``"ransac7"``).
     H2_from_1 : (3, 3) float64 or None
-        The plane homography used (six-point and plane + parallax estimates).
+        The plane homography used (six-point and plane + parallax estimates),
+        ``x2 ~ H2_from_1 x1`` on the plane; unit norm, ``H[2, 2] >= 0``
+        (``geometry.homography.normalize_homography``).
     P1, P2 : (3, 4) float64 or None
         Projective cameras consistent with ``F`` in pixel coordinates, when the
         estimator builds them (the projective six-point method).
@@ -383,24 +384,21 @@ def symmetric_epipolar_distance(F, x1, x2) -> np.ndarray:
 
 def _project_to_F(F: np.ndarray, x1: np.ndarray, x2: np.ndarray, iterations: int = 5) -> tuple[np.ndarray, np.ndarray]:
     """Move correspondences (N, 2) onto the epipolar variety of ``F`` by iterated
-    Sampson corrections (converges to the nearest consistent pair for
-    near-consistent input)."""
-    a, b = x1.copy(), x2.copy()
+    Sampson corrections (Gauss-Newton on the triangulation: each step linearises
+    ``x2^T F x1`` at the current pair and takes the smallest move from the
+    *observed* pair onto the linearised constraint); converges to the nearest
+    consistent pair for near-consistent input."""
+    u1, v1, u2, v2 = x1[:, 0], x1[:, 1], x2[:, 0], x2[:, 1]
+    a1, b1, a2, b2 = u1, v1, u2, v2
     for _ in range(iterations):
-        X1, X2 = _hom(a), _hom(b)
-        Fx1 = X1 @ F.T
-        Ftx2 = X2 @ F
-        # linearise about the current point, measured from the observed one
-        e = np.einsum("ij,ij->i", X2, Fx1)
-        J = np.column_stack([Ftx2[:, :2], Fx1[:, :2]])  # d e / d (x1, y1, x2, y2)
-        delta_now = np.column_stack([a - x1, b - x2])
-        r = e - np.einsum("ij,ij->i", J, delta_now)
-        den = np.einsum("ij,ij->i", J, J)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lam = np.where(den > 0, r / den, 0.0)
-        delta = -lam[:, None] * J
-        a, b = x1 + delta[:, :2], x2 + delta[:, 2:]
-    return a, b
+        l2 = F[:, 0, None] * a1 + F[:, 1, None] * b1 + F[:, 2, None]  # F x1: line in image 2
+        l1 = F[0, :, None] * a2 + F[1, :, None] * b2 + F[2, :, None]  # F^T x2: line in image 1
+        e = a2 * l2[0] + b2 * l2[1] + l2[2]
+        j0, j1, j2, j3 = l1[0], l1[1], l2[0], l2[1]  # d e / d (x1, y1, x2, y2)
+        r = e - (j0 * (a1 - u1) + j1 * (b1 - v1) + j2 * (a2 - u2) + j3 * (b2 - v2))
+        lam = r / np.maximum(j0 * j0 + j1 * j1 + j2 * j2 + j3 * j3, 1e-300)
+        a1, b1, a2, b2 = u1 - lam * j0, v1 - lam * j1, u2 - lam * j2, v2 - lam * j3
+    return np.column_stack([a1, b1]), np.column_stack([a2, b2])
 
 
 def fmatrix_distance(F_a, F_b, x1, x2) -> float:
@@ -596,7 +594,7 @@ def _six_point_projective(Y1, Y2, cop, off):
             f"off-plane points {off[0]} and {off[1]} lie on one epipolar plane (their parallax lines "
             "coincide): the epipole is undefined"
         )
-    s, t, beta = np.linalg.solve(A, y5)
+    _, _, beta = np.linalg.solve(A, y5)
     P1c = np.column_stack([np.eye(3), y5])
     P2c = np.column_stack([np.eye(3), beta * z5])
     Fc = _bifocal(P1c, P2c)
@@ -757,14 +755,23 @@ def _orthonormal_start(Fn: np.ndarray):
     return U, V, s[1] / s[0]
 
 
+def _rodrigues(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) of a rotation vector (3,)."""
+    th = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    if th < 1e-12:
+        return np.eye(3) + _skew(w)
+    S = _skew(w / th)
+    return np.eye(3) + math.sin(th) * S + (1.0 - math.cos(th)) * (S @ S)
+
+
 def _F_from_params(p: np.ndarray, U0: np.ndarray, V0: np.ndarray) -> np.ndarray:
     """Orthonormal representation (Bartoli & Sturm): F = U diag(1, s, 0) V^T, 7 params."""
-    U = U0 @ Rotation.from_rotvec(p[0:3]).as_matrix()
-    V = V0 @ Rotation.from_rotvec(p[3:6]).as_matrix()
+    U = U0 @ _rodrigues(p[0:3])
+    V = V0 @ _rodrigues(p[3:6])
     return (U * np.array([1.0, p[6], 0.0])) @ V.T
 
 
-def _refine_sampson(Fn, X1n, X2n, X1, X2, T1, T2, max_nfev, loss="linear", f_scale=1.0):
+def _refine_sampson(Fn, X1, X2, T1, T2, max_nfev, loss="linear", f_scale=1.0):
     """LM (or, with a robust ``loss``, scipy's trust-region ``trf``) on the Sampson
     distances in pixels over the 7 parameters of F."""
     U0, V0, s0 = _orthonormal_start(Fn)
@@ -787,7 +794,7 @@ def _refine_sampson(Fn, X1n, X2n, X1, X2, T1, T2, max_nfev, loss="linear", f_sca
     return _F_from_params(sol.x, U0, V0)
 
 
-def _refine_reprojection(Fn, X1n, X2n, a, b, T1, T2, max_nfev):
+def _refine_reprojection(Fn, a, b, T1, T2, max_nfev):
     """Gold standard (HZ alg. 11.3) by variable projection: for each F (7 params) the
     3-D points are eliminated by moving every correspondence to the nearest pair
     consistent with F (iterated Sampson corrections, i.e. Gauss-Newton on the
@@ -796,7 +803,7 @@ def _refine_reprojection(Fn, X1n, X2n, a, b, T1, T2, max_nfev):
 
     def fun(p):
         F = _denormalize(_F_from_params(p, U0, V0), T1, T2)
-        c1, c2 = _project_to_F(F / np.linalg.norm(F), a, b, iterations=8)
+        c1, c2 = _project_to_F(F / np.linalg.norm(F), a, b, iterations=4)
         return np.column_stack([c1 - a, c2 - b]).ravel()
 
     p0 = np.r_[np.zeros(6), s0]
@@ -805,7 +812,7 @@ def _refine_reprojection(Fn, X1n, X2n, a, b, T1, T2, max_nfev):
 
 
 def _reprojection_cost(F, a, b):
-    c1, c2 = _project_to_F(F / np.linalg.norm(F), a, b, iterations=8)
+    c1, c2 = _project_to_F(F / np.linalg.norm(F), a, b, iterations=4)
     return float(np.sum((c1 - a) ** 2) + np.sum((c2 - b) ** 2))
 
 
@@ -855,16 +862,15 @@ def refine(F, x1, x2, *, cost: str = "sampson", max_iterations: int = 200) -> Fu
 
 def _refine_core(F0, a, b, T1, T2, cost, max_iterations):
     X1, X2 = _hom(a), _hom(b)
-    X1n, X2n = X1 @ T1.T, X2 @ T2.T
     Fn0 = np.linalg.solve(T2.T, F0) @ np.linalg.inv(T1)
     Fn0 /= np.linalg.norm(Fn0)
     if cost == "sampson":
-        Fn = _refine_sampson(Fn0, X1n, X2n, X1, X2, T1, T2, max_nfev=max_iterations * 8)
+        Fn = _refine_sampson(Fn0, X1, X2, T1, T2, max_nfev=max_iterations * 8)
         F = normalize_fundamental(_denormalize(Fn, T1, T2))
         r0, r1 = _sampson(F0, X1, X2), _sampson(F, X1, X2)
         better = np.sum(r1 * r1) <= np.sum(r0 * r0) * (1 + 1e-12)
     else:
-        Fn = _refine_reprojection(Fn0, X1n, X2n, a, b, T1, T2, max_nfev=max_iterations * 8)
+        Fn = _refine_reprojection(Fn0, a, b, T1, T2, max_nfev=max_iterations * 8)
         F = normalize_fundamental(_denormalize(Fn, T1, T2))
         better = _reprojection_cost(F, a, b) <= _reprojection_cost(F0, a, b) * (1 + 1e-12)
     # never return something worse than the start (a guard against a bad LM step)
@@ -1240,7 +1246,7 @@ def _polish(F, a, b, D: _Data, t: float, cost: str, max_iterations: int = 200):
     if np.count_nonzero(d <= cut) >= 8:
         Fn0 = np.linalg.solve(D.T2.T, F) @ np.linalg.inv(D.T1)
         Fn = _refine_sampson(
-            Fn0 / np.linalg.norm(Fn0), None, None, D.X1[near], D.X2[near], D.T1, D.T2,
+            Fn0 / np.linalg.norm(Fn0), D.X1[near], D.X2[near], D.T1, D.T2,
             max_nfev=max_iterations * 8, loss="cauchy", f_scale=sigma,
         )
         F_r = normalize_fundamental(D.F_pix(Fn))
@@ -1342,7 +1348,8 @@ def estimate(
         except ValueError:
             it2 = 0
         else:
-            F, Hn, used, d = F2, Hn2, f"{used2} (re-searched at {t2:.3g} px)", _sampson(F2, D.X1, D.X2)
+            if _cost(d2, t2) < _cost(d, t2):
+                F, Hn, used, d = F2, Hn2, f"{used2} (re-searched at {t2:.3g} px)", d2
         iters += it2
     H = None
     if Hn is not None:
