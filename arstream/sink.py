@@ -230,9 +230,12 @@ class JsonlWriter:
         self.close()
 
     def write(self, record: dict) -> None:
-        rec = json.loads(json.dumps(record, default=_json_default))
-        _check_finite(rec, "record")
-        self.f.write(json.dumps(rec, separators=(",", ":")) + "\n")
+        try:
+            line = json.dumps(record, default=_json_default, allow_nan=False, separators=(",", ":"))
+        except ValueError:
+            _check_finite(json.loads(json.dumps(record, default=_json_default)), "record")  # names the key
+            raise
+        self.f.write(line + "\n")
         self.f.flush()
         self.count += 1
 
