@@ -167,7 +167,9 @@ class OneDCalibration:
         reprojection errors (Zhang) or distances of the outline points to the
         predicted outlines (spheres)
     per_view_rms : (N,) float64, the same per view
-    K_linear : (3, 3) float64, the closed-form estimate
+    K_linear : (3, 3) float64, the closed-form estimate (None when it failed —
+        no positive-definite IAC — and the refinement started from
+        :func:`calib.sphere.intrinsics_from_spheres` instead)
     stage : str, ``"linear"`` or ``"refined"``
     model : str, ``"square_pixels"``, ``"zero_skew"`` or ``"general"``
     method : str, ``"zhang"`` or ``"two_spheres"``
@@ -182,7 +184,7 @@ class OneDCalibration:
     lengths: np.ndarray
     residual_rms: float
     per_view_rms: np.ndarray
-    K_linear: np.ndarray
+    K_linear: np.ndarray | None
     stage: str
     model: str
     method: str
@@ -1045,14 +1047,6 @@ def from_two_spheres(
     T = _conditioning(Cs)
     Cn = _to_frame(T, Cs)
     P = np.column_stack([np.vstack([geom.fixed_centre, geom.free_centres]), np.ones(N + 1)]) @ T.T
-    omega = _linear_iac_from_centres(Cn, P, model)
-    if not np.all(np.linalg.eigvalsh(omega) > 0):
-        raise ValueError(
-            "the closed form gives no positive-definite image of the absolute conic: the sphere images "
-            "constrain K too weakly or are inconsistent"
-        )
-    K_lin = _K_from_omega(omega, T, model)
-
     # observations for residuals / refinement: fixed outline(s) -> sphere 0
     obs_pts = _outline_points(Cf, fixed_points) + _outline_points(Cm, moving_points)
     obs_sph = [0] * len(Cf) + list(range(1, N + 1))
@@ -1062,7 +1056,20 @@ def from_two_spheres(
         X = np.vstack([A[None], B])
         return X, _outline_rms(K, X, r, obs_pts, obs_sph)[1]
 
-    X_lin, rms_lin = seed(K_lin)
+    K_lin, X_lin, rms_lin, closed_error = None, None, np.inf, None
+    try:
+        omega = _linear_iac_from_centres(Cn, P, model)
+        if not np.all(np.linalg.eigvalsh(omega) > 0):
+            raise ValueError(
+                "the closed form gives no positive-definite image of the absolute conic: the sphere images "
+                "constrain K too weakly or are inconsistent"
+            )
+        K_lin = _K_from_omega(omega, T, model)
+        X_lin, rms_lin = seed(K_lin)
+    except ValueError as exc:
+        if not refine:
+            raise
+        closed_error = exc
     K0, X0, init = K_lin, X_lin, "linear"
     if refine:
         try:
@@ -1072,7 +1079,8 @@ def from_two_spheres(
             if rms_alt < rms_lin:
                 K0, X0, init = alt, X_alt, "sphere_rank1"
         except ValueError:
-            pass
+            if closed_error is not None:
+                raise closed_error from None
         K, X = _sphere_ml(K0, X0, obs_pts, obs_sph, r, model, max_nfev)
         stage = "refined"
     else:

@@ -768,6 +768,30 @@ def _rms_to(conic, p) -> np.ndarray:
         return np.abs(sampson_distance(p, conic))
 
 
+def _focal_scan(conics: np.ndarray, outline_points=None) -> np.ndarray | None:
+    """Fallback initial ``K``: square pixels, the principal point at the mean of
+    the outline centres, the focal length (log grid) whose spheres best
+    explain the outlines (RMS distance of the outline points to the outlines
+    predicted from each conic's cone). None if nothing fits."""
+    ells = [ellipse_from_conic(C) for C in conics]
+    c = np.mean([e.center for e in ells], axis=0)
+    spread = max(float(np.max([np.hypot(*(np.subtract(e.center, c))) + e.axes[0] for e in ells])), 1.0)
+    pts = outline_points if outline_points is not None else [e.points(60) for e in ells]
+    best = (np.inf, None)
+    for f in spread * np.geomspace(0.3, 30.0, 60):
+        K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
+        try:
+            X = np.array([sphere_centre(K, C, 1.0) for C in conics])
+        except ValueError:
+            continue
+        Cp = _cone_conics(np.linalg.inv(K), X, 1.0)
+        err = np.concatenate([sampson_distance(p, Cp[j]) for j, p in enumerate(pts)])
+        score = float(np.sqrt(np.mean(err * err)))
+        if score < best[0]:
+            best = (score, K)
+    return best[1]
+
+
 def _clean_stripe(outline: np.ndarray, pts: np.ndarray, rounds: int = 3) -> np.ndarray:
     """Drop stripe pixels far from the stripe conic fitted under double contact
     with the outline (beyond 3 robust standard deviations, at least 1 pixel)."""
@@ -933,7 +957,11 @@ def calibrate(
         try:
             K0 = intrinsics_from_spheres(conics, edge_points=edges, square_pixels=square_pixels, zero_skew=zero_skew).K
         except ValueError as exc:
-            raise ValueError(f"intrinsics from the sphere outlines: {exc}") from None
+            # noisy outlines can make the linear IAC indefinite; the joint refinement
+            # (stripes included) then starts from the best focal length of a scan
+            K0 = _focal_scan(conics, outline_points=edges)
+            if K0 is None:
+                raise ValueError(f"intrinsics from the sphere outlines: {exc}") from None
         model_out = model
     X0 = np.array([sphere_centre(K0, C, r) for C in conics])
     P3 = []

@@ -152,6 +152,19 @@ def test_calibrate_known_K_one_sphere_and_images_without_stripe():
     assert res.stripe_conics[1] is None
 
 
+def test_calibrate_falls_back_to_a_focal_scan(monkeypatch):
+    # when the outlines alone give no positive-definite IAC, the joint refinement
+    # starts from a focal-length scan and reaches the same answer
+    X, conics, edges, stripes = _data(12, n=6)
+
+    def fail(*args, **kwargs):
+        raise ValueError("forced")
+
+    monkeypatch.setattr(SL, "intrinsics_from_spheres", fail)
+    res = SL.calibrate(conics, stripes, radius=R)
+    assert np.allclose(res.K, K0, atol=1e-5 * K0[0, 0]) and res.plane.angle_to(PLANE) < 1e-6
+
+
 def test_calibrate_noise_bound():
     X, conics, edges, stripes = _data(6, n=10, noise=0.5)
     res = SL.calibrate(conics, stripes, radius=R, edge_points=edges)

@@ -186,7 +186,7 @@ def _report(res, extra: dict) -> dict:
         "model": res.model,
         "stage": res.stage,
         "residual_rms_px": res.residual_rms,
-        "K_linear": res.K_linear.tolist(),
+        "K_linear": None if res.K_linear is None else res.K_linear.tolist(),
         "fixed_point": res.fixed_point.tolist(),
         "views": [
             {
