@@ -1,0 +1,482 @@
+"""Pitch detection: grass, white line pixels, long straight lines and circle ellipses.
+
+Per frame (BGR uint8):
+
+1. **Grass.** A colour model of the grass (hue centre and spread, least
+   saturation and value) is estimated from the frame's dominant green hue
+   peak and adapted slowly over the clip (exponential average), on a 1/4-size
+   HSV image. The mask is closed morphologically and its holes are filled, so
+   that players standing on the pitch are inside it; stands, boards and screen
+   graphics (not grass-coloured, or not connected to the pitch) are outside.
+2. **Line pixels.** A pixel is on a painted line when it is brighter than the
+   pixels ``tau`` to both sides of it, horizontally or vertically (a
+   two-sided ridge test on luma, robust to the soft edges of mowing stripes
+   and shadows, which are one-sided). The ridge pixels are thinned by
+   non-maximum suppression across the line and given a sub-pixel centre by a
+   parabola through the luma profile.
+3. **Straight lines.** Probabilistic Hough segments on the thinned line pixels
+   are grouped into long lines (collinear pieces split by players merge),
+   each refitted by weighted total least squares to its support points, with
+   the fit's uncertainty.
+4. **Ellipses.** Line pixels not explained by the straight lines are grouped
+   into connected arcs; an ellipse grown from each large arc (direct fit,
+   then gathering every curved point near it, then a robust geometric
+   refinement) is kept when it is well supported around its perimeter and
+   plausible in size and shape — the centre circle, and penalty arcs.
+
+Arrays in :class:`Detections` are views into the detector's reused buffers:
+valid until the next :meth:`Detector.process` call.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from geometry.conics import Ellipse, ellipse_distance, fit_ellipse_direct, refine_ellipse, sampson_distance
+from geometry.lines import fit_line
+
+__all__ = ["Detector", "Detections", "DetectedLine", "DetectedEllipse", "detect"]
+
+
+@dataclass
+class DetectedLine:
+    """A long straight line in the image.
+
+    Attributes
+    ----------
+    line : (3,) homogeneous image line, a^2 + b^2 = 1, pixels
+    endpoints : (2, 2) extreme support points, pixels
+    points : (N, 2) sub-pixel support points, pixels
+    length : float, pixels between the endpoints
+    normal_sigma : float, offset uncertainty (px)
+    angle_sigma : float, direction uncertainty (rad)
+    """
+
+    line: np.ndarray
+    endpoints: np.ndarray
+    points: np.ndarray = field(repr=False)
+    length: float = 0.0
+    normal_sigma: float = 0.0
+    angle_sigma: float = 0.0
+
+    def to_json(self) -> dict:
+        return {
+            "line": [round(float(v), 8) for v in self.line],
+            "endpoints": np.round(self.endpoints, 2).tolist(),
+            "length": round(self.length, 2),
+            "support": int(len(self.points)),
+            "normal_sigma": round(self.normal_sigma, 4),
+            "angle_sigma": round(self.angle_sigma, 6),
+        }
+
+
+@dataclass
+class DetectedEllipse:
+    """A circle marking's image (centre circle or penalty arc).
+
+    Attributes
+    ----------
+    ellipse : Ellipse, pixels
+    conic : (3, 3) normalised conic (DESIGN convention)
+    points : (N, 2) inlier support points
+    rms : float, orthogonal residual (px)
+    coverage : float, share of the perimeter with support (36 angular bins)
+    score : float in [0, 1]
+    """
+
+    ellipse: Ellipse
+    conic: np.ndarray
+    points: np.ndarray = field(repr=False)
+    rms: float = 0.0
+    coverage: float = 0.0
+    score: float = 0.0
+
+    def to_json(self) -> dict:
+        e = self.ellipse
+        return {
+            "conic": np.round(self.conic, 12).tolist(),
+            "center": [round(e.center[0], 3), round(e.center[1], 3)],
+            "axes": [round(e.axes[0], 3), round(e.axes[1], 3)],
+            "angle": round(e.angle, 6),
+            "rms": round(self.rms, 4),
+            "coverage": round(self.coverage, 3),
+            "score": round(self.score, 3),
+            "support": int(len(self.points)),
+        }
+
+
+@dataclass
+class Detections:
+    """What the detector found in one frame (see the module docstring)."""
+
+    width: int
+    height: int
+    pitch_visible: bool
+    grass_mask: np.ndarray = field(repr=False)
+    line_mask: np.ndarray = field(repr=False)
+    line_points: np.ndarray = field(repr=False)
+    lines: list = field(default_factory=list)
+    ellipses: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """Lines and conics (no pixel arrays)."""
+        return {
+            "width": self.width,
+            "height": self.height,
+            "pitch_visible": self.pitch_visible,
+            "grass_fraction": round(float(np.count_nonzero(self.grass_mask)) / max(self.grass_mask.size, 1), 4),
+            "line_pixels": int(len(self.line_points)),
+            "lines": [l.to_json() for l in self.lines],
+            "ellipses": [e.to_json() for e in self.ellipses],
+            "timings_ms": {k: round(v, 3) for k, v in self.timings.items()},
+        }
+
+
+class Detector:
+    """The detection stage: one object per clip (reuses buffers, adapts its grass model).
+
+    Parameters
+    ----------
+    width, height : frame size (pixels)
+    tau : ridge half-width test distances (px); lines up to about 2 tau wide are found
+    ridge_threshold : least luma contrast (grey levels) of a line pixel over both sides
+    min_line_length : shortest straight line reported (px)
+    """
+
+    def __init__(self, width: int, height: int, *, tau: int | None = None, ridge_threshold: int = 12, min_line_length: float = 50.0):
+        if width < 16 or height < 16:
+            raise ValueError(f"frame size must be at least 16x16, got {width}x{height}")
+        self.width, self.height = int(width), int(height)
+        self.tau = int(tau if tau is not None else max(3, round(4 * width / 1280)))
+        self.ridge_threshold = int(ridge_threshold)
+        self.min_line_length = float(min_line_length)
+        self.scale = 4
+        self._hue: float | None = None  # adapted grass model
+        self._hue_sd: float = 10.0
+        self._sat_min: float = 40.0
+        self._val_min: float = 30.0
+        sw, sh = (width + self.scale - 1) // self.scale, (height + self.scale - 1) // self.scale
+        self._small = np.empty((sh, sw, 3), np.uint8)
+        self._grass_full = np.zeros((height, width), np.uint8)
+        self._line_mask = np.zeros((height, width), np.uint8)
+        self._close_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))
+        self._lsd = None
+
+    # --- grass -----------------------------------------------------------------
+    def _grass(self, image: np.ndarray) -> float:
+        H, W = self.height, self.width
+        small = cv2.resize(image, (self._small.shape[1], self._small.shape[0]), dst=self._small, interpolation=cv2.INTER_AREA)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
+        cand = (s > 35) & (v > 25) & (h >= 25) & (h <= 95)  # greenish at all (OpenCV hue 0-180)
+        if cand.sum() < 0.05 * h.size:
+            cv2.resize(np.zeros(h.shape, np.uint8), (W, H), dst=self._grass_full, interpolation=cv2.INTER_NEAREST)
+            return 0.0
+        hist = np.bincount(h[cand].ravel(), minlength=181).astype(np.float64)
+        hist = np.convolve(hist, np.ones(5) / 5, mode="same")
+        peak = float(np.argmax(hist))
+        sel = cand & (np.abs(h.astype(np.int16) - peak) <= 12)
+        hv = h[sel].astype(np.float64)
+        mu, sd = float(hv.mean()), float(max(hv.std(), 3.0))
+        smin = float(np.percentile(s[sel], 3)) * 0.7
+        vmin = float(np.percentile(v[sel], 2)) * 0.6
+        if self._hue is None:
+            self._hue, self._hue_sd, self._sat_min, self._val_min = mu, sd, smin, vmin
+        else:  # adapt slowly over the clip
+            a = 0.1
+            self._hue += a * (mu - self._hue)
+            self._hue_sd += a * (sd - self._hue_sd)
+            self._sat_min += a * (smin - self._sat_min)
+            self._val_min += a * (vmin - self._val_min)
+        lo = max(self._hue - 3.0 * self._hue_sd - 2, 0)
+        hi = min(self._hue + 3.0 * self._hue_sd + 2, 180)
+        mask = cv2.inRange(hsv, (lo, max(self._sat_min, 20), max(self._val_min, 15)), (hi, 255, 255))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._close_k)
+        # keep the large connected grass regions, then fill holes (players on the pitch)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=4)
+        if n > 1:
+            big = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= 0.02 * mask.size) + 1
+            keep = np.isin(lab, big)
+            mask = np.where(keep, 255, 0).astype(np.uint8)
+        inv = cv2.bitwise_not(mask)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(inv, connectivity=4)
+        for k in range(1, n):
+            x, y, w, hh, area = stats[k]
+            touches = x == 0 or y == 0 or x + w >= mask.shape[1] or y + hh >= mask.shape[0]
+            if not touches or area < 0.003 * mask.size and y > 0:
+                mask[lab == k] = 255  # a hole inside the pitch (a player, the ball, a line)
+        cv2.resize(mask, (W, H), dst=self._grass_full, interpolation=cv2.INTER_NEAREST)
+        return float(np.count_nonzero(mask)) / mask.size
+
+    # --- line pixels ---------------------------------------------------------------
+    def _line_pixels(self, gray: np.ndarray) -> np.ndarray:
+        t = self.tau
+        H, W = gray.shape
+        g = cv2.GaussianBlur(gray, (3, 3), 0)
+        thr = self.ridge_threshold
+        # two-sided ridge test, horizontally and vertically (saturating differences)
+        left = np.zeros_like(g)
+        right = np.zeros_like(g)
+        left[:, t:] = cv2.subtract(g[:, t:], g[:, :-t])
+        right[:, :-t] = cv2.subtract(g[:, :-t], g[:, t:])
+        rh = cv2.min(left, right)
+        up = np.zeros_like(g)
+        down = np.zeros_like(g)
+        up[t:, :] = cv2.subtract(g[t:, :], g[:-t, :])
+        down[:-t, :] = cv2.subtract(g[:-t, :], g[t:, :])
+        rv = cv2.min(up, down)
+        grass = self._grass_full
+        mh = (rh > thr) & (grass > 0)
+        mv = (rv > thr) & (grass > 0)
+        gi = g.astype(np.int16)
+        # non-maximum suppression across the line + sub-pixel parabola
+        pts = []
+        for m, axis in ((mh, 1), (mv, 0)):
+            prev = np.roll(gi, 1, axis=axis)
+            nxt = np.roll(gi, -1, axis=axis)
+            nms = m & (gi >= prev) & (gi > nxt)
+            ys, xs = np.nonzero(nms)
+            if len(ys) == 0:
+                continue
+            a = prev[ys, xs].astype(np.float64)
+            b = gi[ys, xs].astype(np.float64)
+            c = nxt[ys, xs].astype(np.float64)
+            den = a - 2 * b + c
+            off = np.where(den < -1e-9, 0.5 * (a - c) / np.where(den < -1e-9, den, -1.0), 0.0)
+            off = np.clip(off, -0.5, 0.5)
+            if axis == 1:
+                pts.append(np.column_stack([xs + off, ys.astype(np.float64)]))
+            else:
+                pts.append(np.column_stack([xs.astype(np.float64), ys + off]))
+        lm = self._line_mask
+        lm[:] = 0
+        if not pts:
+            return np.zeros((0, 2))
+        P = np.concatenate(pts)
+        # a pixel found by both tests appears twice: keep one
+        key = np.round(P).astype(np.int64)
+        key = key[:, 1] * W + key[:, 0]
+        _, first = np.unique(key, return_index=True)
+        P = P[np.sort(first)]
+        ix = np.clip(np.round(P).astype(np.int64), 0, [W - 1, H - 1])
+        lm[ix[:, 1], ix[:, 0]] = 255
+        # drop blobs: white kits, the ball, graphics give short fat clusters, lines long thin ones
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(lm, None), connectivity=8)
+        if n > 1:
+            ext = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+            good = ext >= max(12, 0.012 * W)
+            good[0] = False
+            keep_px = good[lab[ix[:, 1], ix[:, 0]]]
+            P = P[keep_px]
+            lm[:] = 0
+            ix = ix[keep_px]
+            lm[ix[:, 1], ix[:, 0]] = 255
+        return P
+
+    # --- straight lines --------------------------------------------------------------
+    def _lines(self, P: np.ndarray) -> list[DetectedLine]:
+        if len(P) < 20:
+            return []
+        segs = cv2.HoughLinesP(self._line_mask, 1, np.pi / 720, threshold=25, minLineLength=max(20, self.min_line_length * 0.4), maxLineGap=6)
+        if segs is None:
+            return []
+        segs = np.asarray(segs).reshape(-1, 4).astype(np.float64)
+        seg_len = np.hypot(segs[:, 2] - segs[:, 0], segs[:, 3] - segs[:, 1])
+        order = np.argsort(-seg_len)
+        used = np.zeros(len(P), bool)
+        out: list[DetectedLine] = []
+        for k in order:
+            x0, y0, x1, y1 = segs[k]
+            l = np.cross([x0, y0, 1.0], [x1, y1, 1.0])
+            n = np.hypot(l[0], l[1])
+            if n < 1e-9:
+                continue
+            l = l / n
+            d = np.abs(P @ l[:2] + l[2])
+            sel = (d < 2.0) & ~used
+            if sel.sum() < 20:
+                continue
+            for _ in range(2):
+                fit = fit_line(P[sel])
+                d = np.abs(P @ fit.line[:2] + fit.line[2])
+                sel = (d < 1.5) & ~used
+                if sel.sum() < 20:
+                    break
+            if sel.sum() < 20:
+                continue
+            pts = P[sel]
+            t = pts @ fit.direction
+            # split at gaps wider than 15 % of the frame: keep the longest run (players split lines
+            # by a few dozen pixels; unrelated collinear markings are far apart)
+            o = np.argsort(t)
+            ts = t[o]
+            gaps = np.flatnonzero(np.diff(ts) > 0.15 * self.width)
+            bounds = np.r_[0, gaps + 1, len(ts)]
+            run = max(range(len(bounds) - 1), key=lambda j: ts[bounds[j + 1] - 1] - ts[bounds[j]])
+            keep_idx = o[bounds[run] : bounds[run + 1]]
+            pts = pts[keep_idx]
+            if len(pts) < 20:
+                continue
+            fit = fit_line(pts)
+            tt = pts @ fit.direction
+            length = float(tt.max() - tt.min())
+            # a line is a long, thin, densely supported structure, and straight: the
+            # sagitta of a quadratic through the residuals rejects arcs of the circles
+            if length < self.min_line_length or len(pts) < 0.3 * length or fit.rms > 1.0:
+                continue
+            tn = (tt - 0.5 * (tt.max() + tt.min())) / (0.5 * length)
+            res = pts @ fit.line[:2] + fit.line[2]
+            quad = np.polyfit(tn, res, 2)[0]
+            if abs(quad) > 0.6:
+                continue
+            e = np.array([pts[np.argmin(tt)], pts[np.argmax(tt)]])
+            idx_all = np.flatnonzero(sel)[keep_idx]
+            used[idx_all] = True
+            out.append(DetectedLine(line=fit.line, endpoints=e, points=pts, length=length, normal_sigma=fit.normal_sigma, angle_sigma=fit.angle_sigma))
+            if len(out) >= 16:
+                break
+        out.sort(key=lambda d: -d.length)
+        return out
+
+    # --- ellipses --------------------------------------------------------------------
+    def _ellipses(self, P: np.ndarray, lines: list[DetectedLine]) -> list[DetectedEllipse]:
+        if len(P) < 40:
+            return []
+        curved = np.ones(len(P), bool)
+        for d in lines:
+            curved &= np.abs(P @ d.line[:2] + d.line[2]) > 2.5
+        C = P[curved]
+        if len(C) < 40:
+            return []
+        H, W = self.height, self.width
+        m = np.zeros((H, W), np.uint8)
+        ix = np.clip(np.round(C).astype(np.int64), 0, [W - 1, H - 1])
+        m[ix[:, 1], ix[:, 0]] = 255
+        m = cv2.dilate(m, None, iterations=2)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+        comp = lab[ix[:, 1], ix[:, 0]]
+        order = np.argsort(-stats[:, cv2.CC_STAT_AREA])
+        found: list[DetectedEllipse] = []
+        taken = np.zeros(len(C), bool)
+        tried = 0
+        for k in order:
+            if k == 0:
+                continue
+            sel = (comp == k) & ~taken
+            if sel.sum() < 30:
+                continue
+            ext = max(stats[k, cv2.CC_STAT_WIDTH], stats[k, cv2.CC_STAT_HEIGHT])
+            if ext < 0.04 * W:
+                continue
+            tried += 1
+            if tried > 6:
+                break
+            try:
+                e = fit_ellipse_direct(C[sel])
+            except ValueError:
+                continue
+            if not self._plausible(e):
+                continue
+            for _ in range(2):  # gather the other arcs of the same ellipse, refit
+                near = (np.abs(sampson_distance(C, e.conic)) < 3.0) & ~taken
+                if near.sum() < 30:
+                    break
+                try:
+                    e = fit_ellipse_direct(C[near])
+                except ValueError:
+                    break
+                if not self._plausible(e):
+                    break
+            near = (np.abs(sampson_distance(C, e.conic)) < 2.0) & ~taken
+            if near.sum() < 40 or not self._plausible(e):
+                continue
+            pts = C[near]
+            try:
+                fit = refine_ellipse(pts, e, residual="sampson", loss="soft_l1", f_scale=1.0, max_nfev=25)
+            except ValueError:
+                continue
+            e = fit.ellipse
+            d = ellipse_distance(pts, e)
+            inl = d < 1.5
+            if inl.sum() < 40:
+                continue
+            pts = pts[inl]
+            cov = _coverage(pts, e)
+            rms = float(np.sqrt(np.mean(d[inl] ** 2)))
+            if cov < 0.25 or rms > 1.0 or not self._plausible(e):
+                continue
+            # support density: a painted ellipse is dense along its supported arcs
+            a, b = e.axes
+            perim = np.pi * (3 * (a + b) - np.sqrt((3 * a + b) * (a + 3 * b)))
+            if len(pts) < 0.25 * cov * perim:
+                continue
+            taken |= np.abs(sampson_distance(C, e.conic)) < 2.5
+            score = float(min(1.0, cov * 1.2) * np.exp(-rms))
+            found.append(DetectedEllipse(ellipse=e, conic=e.conic, points=pts, rms=rms, coverage=cov, score=score))
+            if len(found) >= 3:
+                break
+        found.sort(key=lambda d: -d.score)
+        return found
+
+    def _plausible(self, e: Ellipse) -> bool:
+        a, b = e.axes
+        W, H = self.width, self.height
+        cx, cy = e.center
+        return 0.04 * W < a < 3.0 * W and b > 6 and b / a > 0.06 and -W < cx < 2 * W and -H < cy < 2 * H
+
+    # --- public ----------------------------------------------------------------------
+    def process(self, image: np.ndarray) -> Detections:
+        """Detect the pitch markings of one BGR uint8 (H, W, 3) frame."""
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
+            raise ValueError(f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image))} {getattr(image, 'shape', '')}")
+        if image.shape[:2] != (self.height, self.width):
+            raise ValueError(f"image is {image.shape[1]}x{image.shape[0]}, detector expects {self.width}x{self.height}")
+        t0 = time.perf_counter()
+        frac = self._grass(image)
+        t1 = time.perf_counter()
+        visible = frac > 0.2
+        if visible:
+            gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            P = self._line_pixels(gray)
+        else:
+            self._line_mask[:] = 0
+            P = np.zeros((0, 2))
+        t2 = time.perf_counter()
+        lines = self._lines(P) if visible else []
+        t3 = time.perf_counter()
+        ells = self._ellipses(P, lines) if visible else []
+        t4 = time.perf_counter()
+        return Detections(
+            width=self.width,
+            height=self.height,
+            pitch_visible=bool(visible and len(P) >= 30),
+            grass_mask=self._grass_full,
+            line_mask=self._line_mask,
+            line_points=P,
+            lines=lines,
+            ellipses=ells,
+            timings={"grass": 1000 * (t1 - t0), "line_pixels": 1000 * (t2 - t1), "lines": 1000 * (t3 - t2), "ellipses": 1000 * (t4 - t3)},
+        )
+
+
+def _coverage(pts: np.ndarray, e: Ellipse, bins: int = 36) -> float:
+    """Share of the ellipse's perimeter (in parametric angle bins) with support points."""
+    ca, sa = np.cos(e.angle), np.sin(e.angle)
+    d = pts - np.asarray(e.center)
+    u = (d[:, 0] * ca + d[:, 1] * sa) / e.axes[0]
+    v = (-d[:, 0] * sa + d[:, 1] * ca) / e.axes[1]
+    th = np.arctan2(v, u)
+    idx = ((th + np.pi) / (2 * np.pi) * bins).astype(int) % bins
+    return float(len(np.unique(idx))) / bins
+
+
+def detect(image: np.ndarray, **options) -> Detections:
+    """One-shot detection (a fresh :class:`Detector`; no adaptation across frames)."""
+    if not isinstance(image, np.ndarray) or image.ndim != 3:
+        raise ValueError(f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'shape', type(image))}")
+    return Detector(image.shape[1], image.shape[0], **options).process(image)
