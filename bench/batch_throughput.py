@@ -1,21 +1,29 @@
 """Benchmark: throughput of ``arstream batch`` — 2 clips one after the other vs 2 at once.
 
-    .venv/bin/python bench/batch_throughput.py [--size 1280x720] [--frames 150]
+    .venv/bin/python bench/batch_throughput.py [--size 1280x720] [--frames 300]
                                                [--repeats 3] [--json out.json]
 
 Two synthetic broadcast clips (``arstream.synth``, preset wide, seeds 1 and
-2) go through ``arstream.batch.run`` on the local engine, alternately
+2; 100 rendered frames, their packets repeated up to ``--frames``, which
+saves rendering time and changes nothing for throughput) go through
+``arstream.batch.run`` on the local engine, alternately
 
 * **one after the other**: ``workers=1`` (one worker process, the clips in turn);
 * **at once**: ``workers=2`` (two worker processes, one clip each);
 
 ``--repeats`` times each, in the same run (so both see the same load on this
 shared machine), every time into a fresh output folder. Timed: the whole
-``batch.run`` call (spawning the workers, their imports and GL set-up
-included) — what a user waits for. Reported: medians of the wall times, the
-ratio at once / one after the other (target <= 0.65 on 2 cores), the
-frames/s of the batch, the CPU seconds of the workers per frame and the
-load average, which says how much of the machine others were using.
+``batch.run`` call (forking the workers from the already running fork
+server, their GL set-up, every clip, the summary) — the steady state of a
+long batch. Reported: medians of the wall times, the ratio at once / one
+after the other (target <= 0.65 on 2 cores), the frames/s of the batch, the
+workers' CPU per frame, how many cores one clip alone keeps busy (its CPU
+time over its wall time: what bounds the gain of running two at once), and
+the load average, which says how much of the machine others were using.
+
+Then, ``--cli-repeats`` times each (default 1), the same with the command in
+a fresh process, ``arstream batch CLIP1 CLIP2 --out DIR --workers N``: what a
+user waits for, interpreter start, imports and fork-server start included.
 """
 
 from __future__ import annotations
@@ -24,9 +32,9 @@ import argparse
 import json
 import os
 import platform
-import resource
 import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -35,16 +43,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 
-def children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def one_run(clips: list[str], out: str, workers: int) -> dict:
     from arstream import batch
 
     shutil.rmtree(out, ignore_errors=True)
-    c0 = children_cpu()
     t0 = time.perf_counter()
     s = batch.run(clips, out, workers=workers, handle_signals=False)
     wall = time.perf_counter() - t0
@@ -55,16 +57,41 @@ def one_run(clips: list[str], out: str, workers: int) -> dict:
         "frames": s.frames,
         "fps": s.frames / wall,
         "clip_s": [r["seconds"] for r in s.clips],
-        # workers are reaped when the pool shuts down, so their CPU time is counted here
-        "cpu_s": children_cpu() - c0,
+        "clip_cores": [r["cpu_seconds"] / r["seconds"] for r in s.clips],  # cores one clip kept busy
+        "cpu_s": sum(r["cpu_seconds"] for r in s.clips),  # the workers' processes while on a clip
     }
+
+
+def cli_run(clips: list[str], out: str, workers: int) -> float:
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "arstream.cli", "batch", *clips, "--out", out, "--workers", str(workers), "-q"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def lengthen(src: str, dst: str, frames: int) -> None:
+    """``src``'s video packets repeated back to back until there are ``frames`` (no re-encode)."""
+    import av
+
+    with av.open(src) as inp, av.open(dst, "w") as out:
+        vin = inp.streams.video[0]
+        vout = out.add_stream_from_template(vin)
+        pkts = [p for p in inp.demux(vin) if p.dts is not None]
+        step = pkts[-1].pts - pkts[0].pts + (pkts[1].pts - pkts[0].pts)
+        for i in range(frames):
+            k, p = divmod(i, len(pkts))
+            q = av.Packet(bytes(pkts[p]))
+            q.pts, q.dts = pkts[p].pts + k * step, pkts[p].dts + k * step
+            q.is_keyframe, q.time_base, q.stream = pkts[p].is_keyframe, pkts[p].time_base, vout
+            out.mux(q)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", default="1280x720")
-    ap.add_argument("--frames", type=int, default=150)
+    ap.add_argument("--frames", type=int, default=300, help="frames per clip (default: 300)")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cli-repeats", type=int, default=1)
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
     w, h = (int(v) for v in args.size.lower().split("x"))
@@ -76,9 +103,10 @@ def main(argv=None) -> int:
         clips = []
         for seed in (1, 2):
             d = os.path.join(tmp, f"src{seed}")
-            generate(d, preset="wide", seed=seed, frames=args.frames, size=(w, h))
-            clips.append(shutil.move(os.path.join(d, "clip.mp4"), os.path.join(tmp, f"clip{seed}.mp4")))
-        one_run(clips, os.path.join(tmp, "warm"), 2)  # page cache, first-import costs
+            generate(d, preset="wide", seed=seed, frames=min(args.frames, 100), size=(w, h))
+            clips.append(os.path.join(tmp, f"clip{seed}.mp4"))
+            lengthen(os.path.join(d, "clip.mp4"), clips[-1], args.frames)
+        one_run(clips, os.path.join(tmp, "warm"), 2)  # page cache; starts the fork server
         runs = {1: [], 2: []}
         loads = []
         for r in range(args.repeats):
@@ -87,6 +115,11 @@ def main(argv=None) -> int:
                 loads.append(os.getloadavg()[0])
                 x = runs[workers][-1]
                 print(f"  repeat {r + 1}, workers={workers}: {x['wall_s']:.2f} s, {x['fps']:.1f} fps, worker CPU {x['cpu_s']:.1f} s", flush=True)
+        cli = {1: [], 2: []}
+        for r in range(args.cli_repeats):
+            for workers in ((1, 2) if r % 2 == 0 else (2, 1)):
+                cli[workers].append(cli_run(clips, os.path.join(tmp, f"cli{workers}"), workers))
+                print(f"  command, repeat {r + 1}, workers={workers}: {cli[workers][-1]:.2f} s", flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -105,8 +138,13 @@ def main(argv=None) -> int:
         "at_once_fps": round(frames / par, 1),
         "cpu_ms_per_frame_sequential": round(1e3 * statistics.median(x["cpu_s"] for x in runs[1]) / frames, 2),
         "cpu_ms_per_frame_at_once": round(1e3 * statistics.median(x["cpu_s"] for x in runs[2]) / frames, 2),
+        "cores_one_clip_alone": round(statistics.median(c for x in runs[1] for c in x["clip_cores"]), 2),
+        "cores_used_sequential": round(statistics.median(x["cpu_s"] / x["wall_s"] for x in runs[1]), 2),
+        "cores_used_at_once": round(statistics.median(x["cpu_s"] / x["wall_s"] for x in runs[2]), 2),
         "load_average": round(statistics.median(loads), 2),
         "all_walls": {str(k): [round(x["wall_s"], 3) for x in v] for k, v in runs.items()},
+        "command_sequential_s": round(statistics.median(cli[1]), 3) if cli[1] else None,
+        "command_at_once_s": round(statistics.median(cli[2]), 3) if cli[2] else None,
         "python": platform.python_version(),
     }
     print(
@@ -114,8 +152,13 @@ def main(argv=None) -> int:
         f"  one after the other (workers=1): {seq:6.2f} s  ({res['sequential_fps']:.1f} fps, {res['cpu_ms_per_frame_sequential']} ms CPU/frame)\n"
         f"  at once (workers=2):             {par:6.2f} s  ({res['at_once_fps']:.1f} fps, {res['cpu_ms_per_frame_at_once']} ms CPU/frame)\n"
         f"  ratio at once / one after the other: {res['ratio']:.3f}  (target <= 0.65: {'met' if res['ratio'] <= 0.65 else 'NOT met'})\n"
+        f"  cores kept busy: one clip alone {res['cores_one_clip_alone']}; whole run one after the other {res['cores_used_sequential']}, at once {res['cores_used_at_once']}\n"
         f"  load average during the runs: {res['load_average']} on {res['cores']} cores"
     )
+    if cli[1] and cli[2]:
+        a, b = res["command_sequential_s"], res["command_at_once_s"]
+        print(f"  the command in a fresh process: one after the other {a:.2f} s, at once {b:.2f} s, ratio {b / a:.3f}")
+        res["command_ratio"] = round(b / a, 3)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=2)

@@ -29,7 +29,7 @@ from arstream.sink import read_jsonl
 from arstream.synth import generate
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FRAMES = 16
+FRAMES = 12
 SUMMARY_KEYS = {"name", "input", "status", "skipped", "frames", "tracked", "share_tracked", "fps", "seconds", "error", "output", "cameras"}
 
 
@@ -113,11 +113,15 @@ def local_out(archive, tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def long_clip(archive, tmp_path_factory):
-    """Archive clip a repeated 30 times (480 frames): a clip that is still running when we look."""
+def long_clip(archive, local_out, tmp_path_factory):
+    """Archive clip a repeated into a clip of about 2 seconds at the speed the pipeline
+    showed in ``local_out`` (at least 2 and at most 30 times): one that is still running
+    when we look, whatever this build's speed. Returns (path, frames)."""
+    fps = min(r["fps"] for r in local_out[1].clips if r["status"] == "ok")
+    times = int(min(max(round(2.0 * fps / FRAMES), 2), 30))
     d = tmp_path_factory.mktemp("long")
-    repeat_clip(archive / "a" / "clip.mp4", d / "long.mp4", 30)
-    return d / "long.mp4"
+    repeat_clip(archive / "a" / "clip.mp4", d / "long.mp4", times)
+    return d / "long.mp4", times * FRAMES
 
 
 @pytest.fixture(scope="module")
@@ -203,15 +207,15 @@ def test_changed_input_or_options_redo_the_clip(archive, local_out, tmp_path):
     shutil.copytree(archive / "a", src / "a")
     shutil.copytree(archive / "b", src / "b")
     # same names, other inputs: the recorded names are not reused for them
-    s = batch.run([src], out, workers=2, max_frames=4, handle_signals=False)
+    s = batch.run([src], out, workers=2, max_frames=2, handle_signals=False)
     assert [r["name"] for r in s.clips] == ["a__clip-2", "b__clip-2"]
-    assert all(r["frames"] == 4 for r in s.clips)
+    assert all(r["frames"] == 2 for r in s.clips)
     assert len(frame_hashes(out / "a__clip.mp4")) == FRAMES  # the namesake's outputs are untouched
     # options changed (max_frames): redone; input touched: redone
-    s = batch.run([src], out, workers=2, max_frames=5, handle_signals=False)
-    assert [r["frames"] for r in s.clips] == [5, 5] and not any(r["skipped"] for r in s.clips)
+    s = batch.run([src], out, workers=2, max_frames=3, handle_signals=False)
+    assert [r["frames"] for r in s.clips] == [3, 3] and not any(r["skipped"] for r in s.clips)
     os.utime(src / "b" / "clip.mp4", ns=(1, 1))
-    s = batch.run([src], out, workers=2, max_frames=5, handle_signals=False)
+    s = batch.run([src], out, workers=2, max_frames=3, handle_signals=False)
     assert [r["skipped"] for r in s.clips] == [True, False]
 
 
@@ -230,50 +234,50 @@ def test_damaged_input_is_kept_reported_and_not_redone(archive, tmp_path):
 
 
 def test_a_worker_killed_mid_clip_is_retried(archive, long_clip, tmp_path):
+    long_clip, long_frames = long_clip
     out = tmp_path / "out"
     box = {}
     t = threading.Thread(target=lambda: box.update(s=batch.run([long_clip, archive / "b"], out, workers=1, handle_signals=False)))
     t.start()
     try:
-        wait_for(lambda: partial_lines(out, "long") >= 5, "the long clip to start")
-        workers = [pid for pid in worker_pids() if pid != os.getpid()]
-        assert len(workers) == 1
+        wait_for(lambda: partial_lines(out, "long") >= 2, "the long clip to start")
+        workers = writers_of(out / STATE_DIR / "work" / "long")
+        assert len(workers) == 1 and workers[0] != os.getpid()
         os.kill(workers[0], signal.SIGKILL)
     finally:
         t.join(120)
     recs = by_name(box["s"])
-    assert recs["long"]["status"] == "ok" and recs["long"]["frames"] == 30 * FRAMES  # retried in a new worker
+    assert recs["long"]["status"] == "ok" and recs["long"]["frames"] == long_frames  # retried in a new worker
     assert recs["clip"]["status"] == "ok"
     assert not (out / STATE_DIR / "work").exists()
 
 
-def worker_pids() -> list[int]:
-    """Spawned multiprocessing workers that are children of this process."""
-    pids = []
+def writers_of(folder) -> list[int]:
+    """Processes with a file in ``folder`` open (the worker processing that clip)."""
+    folder = str(folder) + os.sep
+    pids = set()
     for d in os.listdir("/proc"):
         if not d.isdigit():
             continue
         try:
-            with open(f"/proc/{d}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read()
+            for fd in os.listdir(f"/proc/{d}/fd"):
+                if os.readlink(f"/proc/{d}/fd/{fd}").startswith(folder):
+                    pids.add(int(d))
         except OSError:
             continue
-        if ppid == os.getpid() and b"spawn_main" in cmd:
-            pids.append(int(d))
-    return pids
+    return sorted(pids)
 
 
 @pytest.mark.parametrize("signals", [1, 2], ids=["ctrl-c-finishes-running", "second-ctrl-c-abandons"])
 def test_ctrl_c_stops_the_batch(archive, long_clip, tmp_path, signals):
+    long_clip, long_frames = long_clip
     out = tmp_path / "out"
     shutil.copy(archive / "a" / "clip.mp4", tmp_path / "first.mp4")
     shutil.copy(archive / "b" / "clip.mp4", tmp_path / "last.mp4")
     inputs = [str(tmp_path / "first.mp4"), str(long_clip), str(tmp_path / "last.mp4")]
     p = subprocess.Popen([sys.executable, "-m", "arstream.cli", "batch", *inputs, "--out", str(out), "--workers", "1"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: (done(out, "first") and partial_lines(out, "long") >= 5) or p.poll() is not None, "the long clip to start")
+        wait_for(lambda: (done(out, "first") and partial_lines(out, "long") >= 2) or p.poll() is not None, "the long clip to start")
         assert p.poll() is None, p.communicate()
         for _ in range(signals):
             p.send_signal(signal.SIGINT)
@@ -287,7 +291,7 @@ def test_ctrl_c_stops_the_batch(archive, long_clip, tmp_path, signals):
     recs = by_name(read_jsonl(out / "summary.jsonl"))
     assert recs["first"]["status"] == "ok" and recs["last"]["status"] == "cancelled"
     if signals == 1:  # the running clip finished
-        assert recs["long"]["status"] == "ok" and recs["long"]["frames"] == 30 * FRAMES
+        assert recs["long"]["status"] == "ok" and recs["long"]["frames"] == long_frames
         assert outputs(out) == {"first.mp4", "first.cameras.jsonl", "long.mp4", "long.cameras.jsonl", "summary.jsonl"}
     else:  # abandoned: nothing of it under a final name
         assert recs["long"]["status"] == "interrupted"
