@@ -1156,6 +1156,8 @@ def _skew_batch(e: np.ndarray) -> np.ndarray:
     return S
 
 
+_MIN_PLANE_FRACTION = 0.2
+
 _PLANAR_SCENE = (
     "all inlier matches are consistent with one homography (a planar scene or a camera "
     "rotating about its centre): the fundamental matrix is not determined"
@@ -1163,8 +1165,13 @@ _PLANAR_SCENE = (
 
 
 def _plane_parallax(D: _Data, t: float, confidence: float, max_iterations: int, rng, min_plane: int):
-    """Plane + parallax RANSAC. Returns (F_n or None, H_n, iterations)."""
-    Hn, on_plane, it_h = _ransac_H(D, 2.0 * t, confidence, max_iterations, rng)
+    """Plane + parallax RANSAC. Returns (F_n or None, H_n, iterations).
+
+    The plane search stops once a plane holding ``_MIN_PLANE_FRACTION`` of the
+    matches would have been found with the requested confidence: a smaller plane
+    is not dominant, and the 7-point search that runs beside this one covers it."""
+    cap = min(max_iterations, _n_iterations(_MIN_PLANE_FRACTION, 4, confidence, max_iterations))
+    Hn, on_plane, it_h = _ransac_H(D, 2.0 * t, confidence, cap, rng)
     if Hn is None or on_plane.sum() < min_plane:
         return None, None, it_h
     L = np.cross(D.X1n @ Hn.T, D.X2n)
