@@ -196,6 +196,11 @@ class Detector:
         lo = max(self._hue - 3.0 * self._hue_sd - 2, 0)
         hi = min(self._hue + 3.0 * self._hue_sd + 2, 180)
         mask = cv2.inRange(hsv, (lo, max(self._sat_min, 20), max(self._val_min, 15)), (hi, 255, 255))
+        # grass is smooth; a crowd in green shirts is not: drop highly textured areas
+        vf = v.astype(np.float32)
+        mean = cv2.blur(vf, (5, 5))
+        var = cv2.blur(vf * vf, (5, 5)) - mean * mean
+        mask[var > 20.0**2] = 0
         mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._close_k)
         # keep the large connected grass regions, then fill holes (players on the pitch)
         n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=4)
@@ -234,21 +239,28 @@ class Detector:
         mh = (rh > thr) & (grass > 0)
         mv = (rv > thr) & (grass > 0)
         gi = g.astype(np.int16)
-        # non-maximum suppression across the line + sub-pixel parabola
+        # centres across the line: local maxima (plateaus of wide lines included), then the
+        # centroid of the brightness above the local background within +-tau along the test
+        # axis (a parabola or a one-sided NMS would bias wide, flat-topped lines)
         pts = []
+        gf = g.astype(np.float32)
         for m, axis in ((mh, 1), (mv, 0)):
             prev = np.roll(gi, 1, axis=axis)
             nxt = np.roll(gi, -1, axis=axis)
-            nms = m & (gi >= prev) & (gi > nxt)
+            nms = m & (gi >= prev) & (gi >= nxt)
             ys, xs = np.nonzero(nms)
             if len(ys) == 0:
                 continue
-            a = prev[ys, xs].astype(np.float64)
-            b = gi[ys, xs].astype(np.float64)
-            c = nxt[ys, xs].astype(np.float64)
-            den = a - 2 * b + c
-            off = np.where(den < -1e-9, 0.5 * (a - c) / np.where(den < -1e-9, den, -1.0), 0.0)
-            off = np.clip(off, -0.5, 0.5)
+            offs = np.arange(-t, t + 1)
+            if axis == 1:
+                cols = np.clip(xs[:, None] + offs[None, :], 0, W - 1)
+                prof = gf[ys[:, None], cols]
+            else:
+                rows = np.clip(ys[:, None] + offs[None, :], 0, H - 1)
+                prof = gf[rows, xs[:, None]]
+            base = np.minimum(prof[:, 0], prof[:, -1])[:, None]
+            w = np.clip(prof - base, 0, None)
+            off = (w * offs[None, :]).sum(1) / np.maximum(w.sum(1), 1e-6)
             if axis == 1:
                 pts.append(np.column_stack([xs + off, ys.astype(np.float64)]))
             else:
@@ -258,9 +270,10 @@ class Detector:
         if not pts:
             return np.zeros((0, 2))
         P = np.concatenate(pts)
-        # a pixel found by both tests appears twice: keep one
-        key = np.round(P).astype(np.int64)
-        key = key[:, 1] * W + key[:, 0]
+        # plateau pixels of one cross-section give the same centre, and a pixel may pass both
+        # tests: keep one point per half-pixel cell
+        key = np.round(P * 2).astype(np.int64)
+        key = key[:, 1] * (2 * W + 2) + key[:, 0]
         _, first = np.unique(key, return_index=True)
         P = P[np.sort(first)]
         ix = np.clip(np.round(P).astype(np.int64), 0, [W - 1, H - 1])
@@ -311,11 +324,12 @@ class Detector:
                 continue
             pts = P[sel]
             t = pts @ fit.direction
-            # split at gaps wider than 15 % of the frame: keep the longest run (players split lines
-            # by a few dozen pixels; unrelated collinear markings are far apart)
+            # split at gaps wider than 5 % of the frame: keep the longest run (players split lines
+            # by a few dozen pixels; unrelated collinear pieces, such as two arcs of an ellipse
+            # that a chord touches, are farther apart)
             o = np.argsort(t)
             ts = t[o]
-            gaps = np.flatnonzero(np.diff(ts) > 0.15 * self.width)
+            gaps = np.flatnonzero(np.diff(ts) > max(25.0, 0.05 * self.width))
             bounds = np.r_[0, gaps + 1, len(ts)]
             run = max(range(len(bounds) - 1), key=lambda j: ts[bounds[j + 1] - 1] - ts[bounds[j]])
             keep_idx = o[bounds[run] : bounds[run + 1]]
@@ -327,7 +341,7 @@ class Detector:
             length = float(tt.max() - tt.min())
             # a line is a long, thin, densely supported structure, and straight: the
             # sagitta of a quadratic through the residuals rejects arcs of the circles
-            if length < self.min_line_length or len(pts) < 0.3 * length or fit.rms > 1.0:
+            if length < self.min_line_length or len(pts) < 0.5 * length or fit.rms > 1.0:
                 continue
             tn = (tt - 0.5 * (tt.max() + tt.min())) / (0.5 * length)
             res = pts @ fit.line[:2] + fit.line[2]
@@ -450,6 +464,9 @@ class Detector:
         lines = self._lines(P) if visible else []
         t3 = time.perf_counter()
         ells = self._ellipses(P, lines) if visible else []
+        if ells:
+            # a flat stretch of an ellipse can pass for a short line: drop lines lying on one
+            lines = [l for l in lines if not any(np.median(np.abs(sampson_distance(l.points, e.conic))) < 1.5 for e in ells)]
         t4 = time.perf_counter()
         return Detections(
             width=self.width,
