@@ -123,8 +123,20 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
         if best is None or merit(r) > merit(best):
             best = r
 
+    def with_k1(r: Refinement | None) -> Refinement | None:
+        """Wide zoom lenses bend lines: when the best candidate explains the markings only
+        partly, let one radial coefficient join the refinement."""
+        if r is None or r.confidence >= 0.9:
+            return r
+        try:
+            rk = refine_camera(r.camera, index, size, model, center=centre, estimate_k1=True, radii=(8.0, 4.0, 2.5))
+        except ValueError:
+            return r
+        return rk if merit(rk) > merit(r) else r
+
     for cam in cands:
         consider(cam, False)
+    best = with_k1(best)
     if best is not None and best.confidence >= 0.75:
         return best
     # line correspondences: score every hypothesis by its unrefined support, refine the best few
@@ -137,6 +149,7 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
         scored.sort(key=lambda s: -s[0])
         for _, cam in scored[:6]:
             consider(cam, True)
+        best = with_k1(best)
     return best
 
 
