@@ -49,7 +49,6 @@ import collections
 import contextlib
 import importlib
 import importlib.util
-import math
 import os
 import signal
 import sys

@@ -9,7 +9,6 @@ mid-run, no GL context.
 from __future__ import annotations
 
 import json
-import math
 import os
 import signal
 import subprocess
@@ -30,8 +29,6 @@ from arstream.source import VideoSource, i420_planes
 from arstream.synth import generate
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HAVE_DETECT = os.path.exists(os.path.join(ROOT, "arstream", "detect.py"))
-HAVE_TRACK = os.path.exists(os.path.join(ROOT, "arstream", "track.py"))
 RECORD_KEYS = {"frame", "pts", "status", "K", "R", "t", "dist", "H", "confidence"}
 
 
@@ -135,20 +132,21 @@ def small(tmp_path_factory):
 # --------------------------------------------------------------------------- end to end
 @pytest.fixture(scope="module")
 def processed(clip, tmp_path_factory):
+    """``arstream process`` on the clip with audio (the real stages)."""
     out = tmp_path_factory.mktemp("out")
-    rc = subprocess.run(
-        [sys.executable, "-m", "arstream.cli", "process", str(clip / "clip_audio.mp4"), "-o", str(out / "ar.mp4"), "--cameras-out", str(out / "cameras.jsonl")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    )
-    return out, rc
+    import contextlib
+    import io
+
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        rc = cli("process", str(clip / "clip_audio.mp4"), "-o", str(out / "ar.mp4"), "--cameras-out", str(out / "cameras.jsonl"))
+    return out, (rc, stdout.getvalue(), stderr.getvalue())
 
 
 def test_process_keeps_frames_timing_and_audio(clip, processed):
-    out, rc = processed
-    assert rc.returncode == 0, rc.stderr
-    assert "frames in" in rc.stdout and "tracked" in rc.stdout and "fps" in rc.stdout
+    out, (rc, stdout, stderr) = processed
+    assert rc == 0, stderr
+    assert "frames in" in stdout and "tracked" in stdout and "fps" in stdout
     a, b = video_facts(str(clip / "clip_audio.mp4")), video_facts(str(out / "ar.mp4"))
     assert b["frames"] == a["frames"] == 25
     assert b["time_base"] == a["time_base"] and b["rate"] == a["rate"]
@@ -163,14 +161,15 @@ def test_process_keeps_frames_timing_and_audio(clip, processed):
     assert not any(name.startswith(".") for name in os.listdir(out))  # no partial files left
 
 
-@pytest.mark.xfail(not (HAVE_DETECT and HAVE_TRACK), reason="arstream/detect.py or arstream/track.py not in the tree yet", strict=False)
 def test_process_accuracy_within_solver_targets(clip, processed, capsys):
-    out, rc = processed
-    assert rc.returncode == 0, rc.stderr
+    """Synth clip -> arstream process (real detector, tracker, renderer) -> arstream eval."""
+    out, (rc, _, stderr) = processed
+    assert rc == 0, stderr
     assert cli("eval", "--truth", str(clip / "truth.jsonl"), "--pred", str(out / "cameras.jsonl"), "--json") == 0
     s = json.loads(capsys.readouterr().out)
-    assert s["coverage"] >= 0.9
-    assert s["median_error"] <= 5.0
+    assert s["coverage"] >= 0.95 and s["false_estimates"] == 0
+    assert s["median"] <= 1.0 and s["p95"] <= 3.0
+    assert s["acc"]["@5"] >= 0.95
     # graphics were drawn: the output differs from the input where the demo scene lies
     with VideoSource(clip / "clip.mp4") as a, VideoSource(out / "ar.mp4") as b:
         diffs = [np.abs(fa.image.astype(int) - fb.image.astype(int)).max() for fa, fb in zip(a, b)]
@@ -319,7 +318,7 @@ def test_signal_mid_run_finalises_outputs(clip, tmp_path, sig, code):
     partial = atomic_path(str(cams))
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and p.poll() is None:
-        if os.path.exists(partial) and open(partial).read().count("\n") >= 30:
+        if os.path.exists(partial) and open(partial).read().count("\n") >= 12:
             break
         time.sleep(0.02)
     assert p.poll() is None, "finished before the signal"
@@ -329,25 +328,24 @@ def test_signal_mid_run_finalises_outputs(clip, tmp_path, sig, code):
     assert "interrupted" in stderr and "Traceback" not in stderr
     recs = [json.loads(line) for line in cams.read_text().splitlines()]  # every line complete
     n = len(recs)
-    assert 30 <= n < 1000 and [r["frame"] for r in recs] == list(range(n))
+    assert 12 <= n < 1000 and [r["frame"] for r in recs] == list(range(n))
     f = video_facts(str(out))  # playable: trailer written
     assert f["frames"] == n
     assert not os.path.exists(partial) and not os.path.exists(atomic_path(str(out)))
 
 
-def test_no_gl_context_names_the_fix(small, tmp_path):
-    env = dict(os.environ, GLCONTEXT_LINUX_LIBEGL=str(tmp_path / "missing" / "libEGL.so.1"))
-    args = [sys.executable, "-m", "arstream.cli", "process", str(small / "clip.mp4"), "-o", str(tmp_path / "o.mp4"), "-q"]
-    r = subprocess.run(args, cwd=ROOT, env=env, capture_output=True, text=True)
-    assert r.returncode == 1
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and "OpenGL" in lines[0] and "apt-get install" in lines[0], r.stderr
+def test_no_gl_context_names_the_fix(small, tmp_path, capsys, monkeypatch):
+    # the real context factory, pointed at an EGL library that is not there
+    monkeypatch.setenv("GLCONTEXT_LINUX_LIBEGL", str(tmp_path / "missing" / "libEGL.so.1"))
+    args = ["process", str(small / "clip.mp4"), "-o", str(tmp_path / "o.mp4"), "-q"]
+    assert cli(*args) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "OpenGL" in lines[0] and "apt-get install" in lines[0], lines
     assert not (tmp_path / "o.mp4").exists() and not os.path.exists(atomic_path(str(tmp_path / "o.mp4")))
-    r = subprocess.run([args[0], "-m", "arstream.cli", "--verbose", *args[3:]], cwd=ROOT, env=env, capture_output=True, text=True)
-    assert r.returncode == 1 and "Traceback" in r.stderr
+    assert cli("--verbose", *args) == 1
+    assert "Traceback" in capsys.readouterr().err
     # cameras only: no GL needed
-    r = subprocess.run([*args[:5], "--cameras-out", str(tmp_path / "c.jsonl"), "-q"], cwd=ROOT, env=env, capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
+    assert cli("process", str(small / "clip.mp4"), "--cameras-out", str(tmp_path / "c.jsonl"), "-q") == 0
 
 
 # --------------------------------------------------------------------------- help

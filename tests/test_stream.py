@@ -20,13 +20,12 @@ from arstream.synth import generate
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RERUN = os.path.join(os.path.dirname(sys.executable), "rerun")
-HAVE_STAGES = all(os.path.exists(os.path.join(ROOT, "arstream", f"{m}.py")) for m in ("detect", "track"))
 
 
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("stream")
-    generate(d, preset="wide", seed=4, frames=10, size=(320, 180))
+    generate(d, preset="wide", seed=4, frames=10, size=(640, 360))
     return d
 
 
@@ -60,11 +59,10 @@ def test_rerun_save_writes_a_valid_recording(clip, tmp_path, capsys):
     assert len(read_jsonl(tmp_path / "c.jsonl")) == 10
 
 
-@pytest.mark.xfail(not HAVE_STAGES, reason="arstream/detect.py or arstream/track.py not in the tree yet: no camera to log", strict=False)
 def test_rerun_logs_the_camera_when_tracked(clip, tmp_path):
     rrd = tmp_path / "live.rrd"
     s = arstream.stream(clip / "clip.mp4", rerun=("save", rrd))
-    assert s.tracked > 0
+    assert s.tracked >= 8
     ents = entities(str(rrd))
     assert {"Pinhole:image_from_camera", "Transform3D:translation"} <= ents["/world/camera"]
     for name in ("focal", "pan", "tilt"):
@@ -77,7 +75,7 @@ def test_unreachable_viewer_warns_and_keeps_going(clip, tmp_path, capsys):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     url = f"rerun+http://127.0.0.1:{port}/proxy"
-    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "connect", url, "-o", str(tmp_path / "o.mp4"), "-q"])
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "connect", url, "-o", str(tmp_path / "o.mp4"), "--frames", "3", "-q"])
     err = capsys.readouterr().err
     assert rc == 0
     assert "warning: no rerun viewer at" in err and url in err
@@ -85,11 +83,11 @@ def test_unreachable_viewer_warns_and_keeps_going(clip, tmp_path, capsys):
 
 
 def test_realtime_paces_and_reports_drops(clip, capsys):
-    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "none", "--realtime", "-q", "--json"])
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--rerun", "none", "--realtime", "--frames", "6", "-q", "--json"])
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
-    assert s["frames"] + s["dropped"] == 10
-    assert s["seconds"] >= 9 / 25  # paced to the clip's clock (25 fps), never faster
+    assert s["frames"] >= 1 and s["frames"] + s["dropped"] == 6
+    assert s["seconds"] >= 5 / 25  # paced to the clip's clock (25 fps), never faster
 
 
 def test_serve_binds_to_localhost_by_default():
@@ -147,15 +145,13 @@ def test_stream_help_and_errors(capsys, tmp_path):
     assert "needs a file name" in capsys.readouterr().err
 
 
-def test_spawn_without_display_warns_and_keeps_going(clip, tmp_path):
-    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+def test_spawn_without_display_warns_and_keeps_going(clip, tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    r = subprocess.run(
-        [sys.executable, "-m", "arstream.cli", "stream", "--source", str(clip / "clip.mp4"), "--port", str(port), "--cameras-out", str(tmp_path / "c.jsonl"), "-q"],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=60,
-    )
-    assert r.returncode == 0, r.stderr
-    assert "warning: no display to open a rerun viewer" in r.stderr
-    assert len(read_jsonl(tmp_path / "c.jsonl")) == 10
+    rc = main(["stream", "--source", str(clip / "clip.mp4"), "--port", str(port), "--cameras-out", str(tmp_path / "c.jsonl"), "--frames", "2", "-q"])
+    assert rc == 0
+    assert "warning: no display to open a rerun viewer" in capsys.readouterr().err
+    assert len(read_jsonl(tmp_path / "c.jsonl")) == 2
