@@ -20,7 +20,8 @@ medians (process / plain, same run); CPU seconds per frame (user + system,
 all threads: the work done, less sensitive to other users of this shared
 machine than wall time); peak resident memory (``ru_maxrss`` of the child);
 and the pipeline's mean milliseconds per frame per stage. Memory flatness:
-peak memory of ``process`` on the clip and on the clip repeated 4 times.
+peak memory of ``process`` on the clip and on the clip repeated ``--long``
+times (default 2).
 
 ``--write`` replaces the section "## Pipeline (arstream process)" of
 bench/README.md with the figures (other sections are left alone).
@@ -84,39 +85,22 @@ def plain(src: str, dst: str) -> None:
 
 
 # --------------------------------------------------------------------------- parent
-def run_child(args: list[str]) -> dict:
-    """Run a command; returns its stdout JSON plus wall, cpu and maxrss (MiB)."""
-    t0 = time.perf_counter()
-    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT, text=True)
-    out, err = p.communicate()
-    wall = time.perf_counter() - t0
-    # the child's own rusage (wait4 is done by communicate; resource.RUSAGE_CHILDREN accumulates,
-    # so take the difference around the call)
-    if p.returncode != 0:
-        raise SystemExit(f"{' '.join(args)} failed ({p.returncode}): {err.strip()[-2000:]}")
-    res = json.loads(out)
-    res["wall"] = wall
-    return res
-
-
 def measured(args: list[str]) -> dict:
-    import resource
-
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    res = run_child(args)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    res["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    """Run a command in a fresh process; its stdout JSON plus wall time, CPU seconds
+    (user + system, all threads) and peak RSS in MiB (from wait4: this child only)."""
+    with tempfile.TemporaryFile() as errf:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=errf, cwd=ROOT)
+        out = p.stdout.read()
+        _, status, ru = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+        p.returncode = os.waitstatus_to_exitcode(status)
+        if p.returncode != 0:
+            errf.seek(0)
+            raise SystemExit(f"{' '.join(args)} failed ({p.returncode}): {errf.read().decode(errors='replace').strip()[-2000:]}")
+    res = json.loads(out)
+    res.update(wall=wall, cpu=ru.ru_utime + ru.ru_stime, rss=ru.ru_maxrss / 1024.0)
     return res
-
-
-def peak_rss(args: list[str]) -> float:
-    """Peak RSS (MiB) of one child, from wait4."""
-    p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=ROOT)
-    _, status, ru = os.wait4(p.pid, 0)
-    p.returncode = os.waitstatus_to_exitcode(status)
-    if p.returncode != 0:
-        raise SystemExit(f"{' '.join(args)} failed: {p.stderr.read().decode()[-2000:]}")
-    return ru.ru_maxrss / 1024.0
 
 
 def clip_for(size: tuple[int, int], frames: int, work: str) -> str:
@@ -151,7 +135,7 @@ def repeat_clip(src: str, dst: str, times: int) -> None:
     inp.close()
 
 
-def bench_size(size, frames, repeats, work) -> dict:
+def bench_size(size, frames, repeats, work, long_times: int = 2) -> dict:
     py = sys.executable
     src = clip_for(size, frames, work)
     out = os.path.join(work, "out.mp4")
@@ -166,6 +150,7 @@ def bench_size(size, frames, repeats, work) -> dict:
     def med(kind, key):
         return statistics.median(r[key] for r in runs[kind])
 
+    rss_process = max(r["rss"] for r in runs["process"])
     res = {
         "size": f"{size[0]}x{size[1]}",
         "frames": n,
@@ -181,25 +166,29 @@ def bench_size(size, frames, repeats, work) -> dict:
         "tracked": runs["process"][0]["share_tracked"],
         "missing": runs["process"][0]["missing"],
     }
-    # memory: the clip, and the clip 4 times over (flat means no whole-clip buffering)
-    long = os.path.join(work, f"long_{size[0]}x{size[1]}.mp4")
-    repeat_clip(src, long, 4)
-    res["rss_plain"] = peak_rss(plain_cmd)
-    res["rss_process"] = peak_rss(proc_cmd)
-    res["rss_process_x4"] = peak_rss([py, "-m", "arstream.cli", "process", long, "-o", out, "-q", "--json"])
+    # memory: the clip, and the clip ``long_times`` over (flat means no whole-clip buffering)
+    res["rss_plain"] = max(r["rss"] for r in runs["plain"])
+    res["rss_process"] = rss_process
+    res["long_times"] = long_times
+    if long_times > 1:
+        long = os.path.join(work, f"long_{size[0]}x{size[1]}.mp4")
+        repeat_clip(src, long, long_times)
+        res["rss_process_long"] = measured([py, "-m", "arstream.cli", "process", long, "-o", out, "-q", "--json"])["rss"]
+    else:
+        res["rss_process_long"] = float("nan")
     return res
 
 
 def table(results: list[dict]) -> str:
     lines = [
-        "| clip | plain decode+encode | arstream process | ratio (run / whole command) | CPU ms/frame plain / process | peak RSS plain / process / process on 4x the clip |",
+        "| clip | plain decode+encode | arstream process | ratio (run / whole command) | CPU ms/frame plain / process | peak RSS plain / process / process on the clip repeated |",
         "|---|---|---|---|---|---|",
     ]
     for r in results:
         lines.append(
             f"| {r['size']}, {r['frames']} frames | {r['plain_fps']:.1f} fps ({r['plain_wall']:.1f} s) | {r['process_fps']:.1f} fps ({r['process_wall']:.1f} s) "
             f"| {r['ratio_run']:.2f}x / {r['ratio_wall']:.2f}x | {r['plain_cpu_ms']:.1f} / {r['process_cpu_ms']:.1f} "
-            f"| {r['rss_plain']:.0f} / {r['rss_process']:.0f} / {r['rss_process_x4']:.0f} MiB |"
+            f"| {r['rss_plain']:.0f} / {r['rss_process']:.0f} / {r['rss_process_long']:.0f} MiB ({r['long_times']}x) |"
         )
     lines += ["", "Mean milliseconds per frame in each stage (main thread, except decode and encode, which run on their own threads):", ""]
     stages = list(dict.fromkeys(k for r in results for k in r["stage_ms"]))
@@ -222,9 +211,10 @@ def verdicts(results: list[dict]) -> str:
             out.append(f"- 720p: {r['process_cpu_ms']:.1f} CPU ms per frame, i.e. at most {cpu_fps:.0f} fps on two idle cores")
         if h == 1080:
             out.append(f"- 1080p: {r['process_fps']:.1f} fps, target >= 25: {'met' if r['process_fps'] >= 25 else 'NOT met'}; {r['process_cpu_ms']:.1f} CPU ms per frame (at most {2000.0 / max(r['process_cpu_ms'], 1e-9):.0f} fps on two idle cores)")
-        peak = max(r["rss_process"], r["rss_process_x4"])
+        long = r["rss_process_long"] if r["rss_process_long"] == r["rss_process_long"] else 0.0
+        peak = max(r["rss_process"], long)
         if h >= 1080:
-            out.append(f"- 1080p peak memory {peak:.0f} MiB (clip x4: {r['rss_process_x4']:.0f} MiB), target <= 1 GB: {'met' if peak <= 1024 else 'NOT met'}")
+            out.append(f"- 1080p peak memory {peak:.0f} MiB ({r['frames']} frames: {r['rss_process']:.0f} MiB; {r['long_times']}x as long: {r['rss_process_long']:.0f} MiB), target <= 1 GB: {'met' if peak <= 1024 else 'NOT met'}")
     return "\n".join(out)
 
 
@@ -249,6 +239,7 @@ def main() -> None:
     ap.add_argument("--sizes", default="1280x720,1920x1080")
     ap.add_argument("--frames", type=int, default=250)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--long", type=int, default=2, metavar="K", help="memory check on the clip repeated K times (default: 2; 1 skips it)")
     ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "arstream-bench-pipeline"))
     ap.add_argument("--write", action="store_true", help="write the figures into bench/README.md")
     args = ap.parse_args()
@@ -259,7 +250,7 @@ def main() -> None:
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
     results = []
     for size in sizes:
-        r = bench_size(size, args.frames, args.repeats, args.work)
+        r = bench_size(size, args.frames, args.repeats, args.work, args.long)
         print(json.dumps(r, indent=2), file=sys.stderr)
         results.append(r)
     load = os.getloadavg()
@@ -270,7 +261,7 @@ def main() -> None:
     print(text + note)
     if args.write:
         write_section(
-            f"`.venv/bin/python bench/pipeline_speed.py --frames {args.frames} --repeats {args.repeats} --write` "
+            f"`.venv/bin/python bench/pipeline_speed.py --frames {args.frames} --repeats {args.repeats} --long {args.long} --write` "
             f"({time.strftime('%Y-%m-%d')}; {info}). Medians of {args.repeats} alternating runs per command, "
             f"each in a fresh process; \"run\" is the pipeline's own clock (decode of the first frame to the "
             f"trailer), \"whole command\" adds interpreter start-up, imports and GL set-up.\n\n{text}{note}\n"
