@@ -19,10 +19,11 @@ Per frame (BGR uint8):
    each refitted by weighted total least squares to its support points, with
    the fit's uncertainty.
 4. **Ellipses.** Line pixels not explained by the straight lines are grouped
-   into connected arcs; an ellipse grown from each large arc (direct fit,
-   then gathering every curved point near it, then a robust geometric
-   refinement) is kept when it is well supported around its perimeter and
-   plausible in size and shape — the centre circle, and penalty arcs.
+   into connected arcs (on a half-resolution mask); an ellipse grown from
+   each large arc (direct fit, then gathering every curved point near it by
+   Sampson distance, then a refit on the orthogonal-distance inliers) is kept
+   when it is well supported around its perimeter and plausible in size and
+   shape — the centre circle, and penalty arcs.
 
 Arrays in :class:`Detections` are views into the detector's reused buffers:
 valid until the next :meth:`Detector.process` call.
@@ -36,7 +37,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from geometry.conics import Ellipse, ellipse_distance, fit_ellipse_direct, refine_ellipse, sampson_distance
+from geometry.conics import Ellipse, ellipse_distance, fit_ellipse_direct, sampson_distance
 from geometry.lines import fit_line
 
 __all__ = ["Detector", "Detections", "DetectedLine", "DetectedEllipse", "detect"]
@@ -164,6 +165,7 @@ class Detector:
         self._small = np.empty((sh, sw, 3), np.uint8)
         self._grass_full = np.zeros((height, width), np.uint8)
         self._line_mask = np.zeros((height, width), np.uint8)
+        self._half = np.zeros(((height + 1) // 2, (width + 1) // 2), np.uint8)
         self._close_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))
         self._lsd = None
 
@@ -278,13 +280,17 @@ class Detector:
         P = P[np.sort(first)]
         ix = np.clip(np.round(P).astype(np.int64), 0, [W - 1, H - 1])
         lm[ix[:, 1], ix[:, 0]] = 255
-        # drop blobs: white kits, the ball, graphics give short fat clusters, lines long thin ones
-        n, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(lm, None), connectivity=8)
+        # drop blobs: white kits, the ball, graphics give short clusters, lines long ones
+        # (connected components on a half-resolution mask: cheap, and gaps of a pixel close)
+        half = self._half
+        half[:] = 0
+        half[ix[:, 1] // 2, ix[:, 0] // 2] = 255
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(half, connectivity=8)
         if n > 1:
-            ext = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+            ext = 2 * np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
             good = ext >= max(12, 0.012 * W)
             good[0] = False
-            keep_px = good[lab[ix[:, 1], ix[:, 0]]]
+            keep_px = good[lab[ix[:, 1] // 2, ix[:, 0] // 2]]
             P = P[keep_px]
             lm[:] = 0
             ix = ix[keep_px]
@@ -295,10 +301,16 @@ class Detector:
     def _lines(self, P: np.ndarray) -> list[DetectedLine]:
         if len(P) < 20:
             return []
-        segs = cv2.HoughLinesP(self._line_mask, 1, np.pi / 720, threshold=25, minLineLength=max(20, self.min_line_length * 0.4), maxLineGap=6)
+        # Hough on the half-resolution mask (4x fewer pixels); the lines are refitted to
+        # the full-resolution sub-pixel points below, so its coarseness does not matter
+        half = self._half
+        half[:] = 0
+        ix = np.clip((P * 0.5).astype(np.int64), 0, [half.shape[1] - 1, half.shape[0] - 1])
+        half[ix[:, 1], ix[:, 0]] = 255
+        segs = cv2.HoughLinesP(half, 1, np.pi / 360, threshold=15, minLineLength=max(10, self.min_line_length * 0.2), maxLineGap=4)
         if segs is None:
             return []
-        segs = np.asarray(segs).reshape(-1, 4).astype(np.float64)
+        segs = 2.0 * np.asarray(segs).reshape(-1, 4).astype(np.float64) + 0.5
         seg_len = np.hypot(segs[:, 2] - segs[:, 0], segs[:, 3] - segs[:, 1])
         order = np.argsort(-seg_len)
         used = np.zeros(len(P), bool)
@@ -310,6 +322,9 @@ class Detector:
             if n < 1e-9:
                 continue
             l = l / n
+            mid = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 1.0])
+            if any(abs(d.line @ mid) < 3.0 and abs(d.line[:2] @ l[:2]) > 0.998 and _within(d, mid[:2]) for d in out):
+                continue  # a piece of a line already found
             d = np.abs(P @ l[:2] + l[2])
             sel = (d < 2.0) & ~used
             if sel.sum() < 20:
@@ -368,11 +383,15 @@ class Detector:
         if len(C) < 40:
             return []
         H, W = self.height, self.width
-        m = np.zeros((H, W), np.uint8)
-        ix = np.clip(np.round(C).astype(np.int64), 0, [W - 1, H - 1])
+        m = self._half
+        m[:] = 0
+        ix = np.clip((C * 0.5).astype(np.int64), 0, [m.shape[1] - 1, m.shape[0] - 1])
         m[ix[:, 1], ix[:, 0]] = 255
-        m = cv2.dilate(m, None, iterations=2)
+        m = cv2.dilate(m, None)
         n, lab, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+        stats = stats.copy()
+        stats[:, cv2.CC_STAT_WIDTH] *= 2
+        stats[:, cv2.CC_STAT_HEIGHT] *= 2
         comp = lab[ix[:, 1], ix[:, 0]]
         order = np.argsort(-stats[:, cv2.CC_STAT_AREA])
         found: list[DetectedEllipse] = []
@@ -410,11 +429,16 @@ class Detector:
             if near.sum() < 40 or not self._plausible(e):
                 continue
             pts = C[near]
-            try:
-                fit = refine_ellipse(pts, e, residual="sampson", loss="soft_l1", f_scale=1.0, max_nfev=25)
-            except ValueError:
-                continue
-            e = fit.ellipse
+            # trim to the orthogonal-distance inliers and refit (the direct fit on clean,
+            # well-spread points is within a few hundredths of a pixel of the geometric fit)
+            d = ellipse_distance(pts, e)
+            if (d < 1.5).sum() >= 40:
+                try:
+                    e = fit_ellipse_direct(pts[d < 1.5])
+                except ValueError:
+                    continue
+                if not self._plausible(e):
+                    continue
             d = ellipse_distance(pts, e)
             inl = d < 1.5
             if inl.sum() < 40:
@@ -479,6 +503,16 @@ class Detector:
             ellipses=ells,
             timings={"grass": 1000 * (t1 - t0), "line_pixels": 1000 * (t2 - t1), "lines": 1000 * (t3 - t2), "ellipses": 1000 * (t4 - t3)},
         )
+
+
+def _within(d: DetectedLine, p: np.ndarray, margin: float = 20.0) -> bool:
+    """Whether point ``p`` (2,) lies between the ends of line ``d`` (along it, +- margin px)."""
+    u = d.endpoints[1] - d.endpoints[0]
+    n = np.linalg.norm(u)
+    if n < 1e-9:
+        return False
+    t = (p - d.endpoints[0]) @ u / n
+    return -margin <= t <= n + margin
 
 
 def _coverage(pts: np.ndarray, e: Ellipse, bins: int = 36) -> float:
