@@ -682,23 +682,17 @@ def _to_frame(T: np.ndarray, Cs: np.ndarray) -> np.ndarray:
     return np.array([normalize_conic(Ti.T @ C @ Ti) for C in Cs])
 
 
-def _kfree_geometry(Cn: np.ndarray):
-    """K-free geometry in the conditioned frame; sphere 0 is the fixed one.
-
-    Returns (centres (M, 3) homogeneous with w = 1, midpoints (N, 3),
-    vanishing points (N, 3), lines (N, 3), depth ratios (N,))."""
+def _centres_from_pairs(Cn: np.ndarray, required_pairs_with: int | None = None):
+    """Imaged centres (M, 3), w = 1, of spheres with outlines ``Cn`` (conditioned
+    frame, M >= 3): each is the common point of the lines of centres of all
+    pairs it belongs to. Also returns the pairs' ``(x0, lam, line)`` by pair.
+    Pairs with sphere ``required_pairs_with`` must all be usable."""
     M = len(Cn)
-    for j in range(1, M):
-        if _nested(Cn[0], Cn[j]):
-            raise ValueError(
-                f"view {j - 1}: one sphere image lies (almost) inside the other (one sphere hides the "
-                "other): the pair gives no line of centres"
-            )
     lines = {}
     for i, j in itertools.combinations(range(M), 2):
         pl = _pair_line(Cn[i], Cn[j])
         if pl is None:
-            if i == 0:
+            if i == required_pairs_with:
                 raise ValueError(
                     f"view {j - 1}: one sphere image lies (almost) inside the other (one sphere hides the "
                     "other): the pair gives no line of centres"
@@ -717,6 +711,34 @@ def _kfree_geometry(Cn: np.ndarray):
                 "or all views with the same orientation): the imaged centres are undetermined"
             )
         centres[i] = p / p[2]
+    return centres, lines
+
+
+def _closed_form_K(conics: np.ndarray, model: str) -> np.ndarray:
+    """Closed-form ``K`` (pixels) from three or more sphere outlines (pixels) via
+    their K-free imaged centres (module note, items 2 and 5). Raises ValueError."""
+    T = _conditioning(conics)
+    Cn = _to_frame(T, conics)
+    centres, _ = _centres_from_pairs(Cn)
+    omega = _linear_iac_from_centres(Cn, centres, model)
+    if not np.all(np.linalg.eigvalsh(omega) > 0):
+        raise ValueError("the closed form gives no positive-definite image of the absolute conic")
+    return _K_from_omega(omega, T, model)
+
+
+def _kfree_geometry(Cn: np.ndarray):
+    """K-free geometry in the conditioned frame; sphere 0 is the fixed one.
+
+    Returns (centres (M, 3) homogeneous with w = 1, midpoints (N, 3),
+    vanishing points (N, 3), lines (N, 3), depth ratios (N,))."""
+    M = len(Cn)
+    for j in range(1, M):
+        if _nested(Cn[0], Cn[j]):
+            raise ValueError(
+                f"view {j - 1}: one sphere image lies (almost) inside the other (one sphere hides the "
+                "other): the pair gives no line of centres"
+            )
+    centres, lines = _centres_from_pairs(Cn, required_pairs_with=0)
     a = centres[0]
     N = M - 1
     mids = np.empty((N, 3))

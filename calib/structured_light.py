@@ -792,6 +792,46 @@ def _focal_scan(conics: np.ndarray, outline_points=None) -> np.ndarray | None:
     return best[1]
 
 
+def _initial_spheres_and_plane(K0, conics, str_list, r):
+    """Sphere centres from ``K0`` and the outlines; the plane through the stripe
+    pixels back-projected onto their spheres. Returns (X0, plane, plane rms)."""
+    X0 = np.array([sphere_centre(K0, C, r) for C in conics])
+    P3 = []
+    for j, s in enumerate(str_list):
+        if s is None:
+            continue
+        Pj = backproject_to_sphere(K0, X0[j], r, s, tolerance=0.05)
+        miss = np.count_nonzero(~np.isfinite(Pj[:, 0]))
+        if miss > 0.5 * len(s):
+            raise ValueError(f"stripe_points[{j}]: {miss} of {len(s)} rays miss the sphere: the stripe misses the sphere")
+        P3.append(Pj)
+    plane0, plane_rms = fit_plane(np.concatenate(P3))
+    return X0, plane0, plane_rms
+
+
+def _total_rms(K, X, plane, r, outline_pts, str_list) -> float:
+    """RMS Sampson distance (pixels) of all outline and stripe points to the model."""
+    Ki = np.linalg.inv(K)
+    Co = _cone_conics(Ki, X, r)
+    Cs = _stripe_conics(Ki, X, r, plane.normal, plane.d)
+    d = [sampson_distance(p, Co[j]) for j, p in enumerate(outline_pts)]
+    d += [sampson_distance(s, Cs[j]) for j, s in enumerate(str_list) if s is not None]
+    d = np.concatenate(d)
+    return float(np.sqrt(np.mean(d * d)))
+
+
+def _focal_candidates(conics: np.ndarray, outline_pts) -> list[np.ndarray]:
+    """Fallback starting points: square pixels, the principal point at the mean of
+    the outline centres, focal lengths of 0.5 to 4 times the outlines' spread
+    plus the best of a scan (:func:`_focal_scan`)."""
+    ells = [ellipse_from_conic(C) for C in conics]
+    c = np.mean([e.center for e in ells], axis=0)
+    spread = max(float(np.max([np.hypot(*(np.subtract(e.center, c))) + e.axes[0] for e in ells])), 1.0)
+    out = [np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]]) for f in spread * np.array([0.5, 1.0, 2.0, 4.0])]
+    scan = _focal_scan(conics, outline_pts)
+    return out + ([scan] if scan is not None else [])
+
+
 def _clean_stripe(outline: np.ndarray, pts: np.ndarray, rounds: int = 3) -> np.ndarray:
     """Drop stripe pixels far from the stripe conic fitted under double contact
     with the outline (beyond 3 robust standard deviations, at least 1 pixel)."""
@@ -950,37 +990,38 @@ def calibrate(
     if all(s is None for s in str_list):
         raise ValueError("no laser stripe in any image: the light plane is unobservable")
     conics = np.array(conics)
+    outline_pts = edges if edges is not None else [ellipse_from_conic(C).points(100) for C in conics]
     if fix_K:
-        K0 = _check_K(K)
+        starts = [_check_K(K)]
         model_out = "fixed"
     else:
-        try:
-            K0 = intrinsics_from_spheres(conics, edge_points=edges, square_pixels=square_pixels, zero_skew=zero_skew).K
-        except ValueError as exc:
-            # noisy outlines can make the linear IAC indefinite; the joint refinement
-            # (stripes included) then starts from the best focal length of a scan
-            K0 = _focal_scan(conics, outline_points=edges)
-            if K0 is None:
-                raise ValueError(f"intrinsics from the sphere outlines: {exc}") from None
         model_out = model
-    X0 = np.array([sphere_centre(K0, C, r) for C in conics])
-    P3 = []
-    for j, s in enumerate(str_list):
-        if s is None:
+        try:
+            starts = [intrinsics_from_spheres(conics, edge_points=edges, square_pixels=square_pixels, zero_skew=zero_skew).K]
+        except ValueError as exc:
+            # noisy outlines can make the linear IAC indefinite: start the joint refinement
+            # (which has the stripes' constraints too) from several focal lengths, keep the best
+            starts = _focal_candidates(conics, outline_pts)
+            if not starts:
+                raise ValueError(f"intrinsics from the sphere outlines: {exc}") from None
+    best, first_error = None, None
+    for K0 in starts:
+        try:
+            X0, plane0, plane_rms = _initial_spheres_and_plane(K0, conics, str_list, r)
+        except ValueError as exc:
+            first_error = first_error or exc
             continue
-        Pj = backproject_to_sphere(K0, X0[j], r, s, tolerance=0.05)
-        miss = np.count_nonzero(~np.isfinite(Pj[:, 0]))
-        if miss > 0.5 * len(s):
-            raise ValueError(f"stripe_points[{j}]: {miss} of {len(s)} rays miss the sphere: the stripe misses the sphere")
-        P3.append(Pj)
-    plane0, plane_rms = fit_plane(np.concatenate(P3))
-    outline_pts = edges if edges is not None else [ellipse_from_conic(C).points(100) for C in conics]
-    if refine:
-        Kf, Xf, plane, _ = _joint_ml(K0, X0, plane0, outline_pts, str_list, r, model, fix_K, max_nfev)
-        stage = "refined"
-    else:
-        Kf, Xf, plane = K0, X0, plane0
-        stage = "initial"
+        if refine:
+            Kf, Xf, plane, _ = _joint_ml(K0, X0, plane0, outline_pts, str_list, r, model, fix_K, max_nfev)
+        else:
+            Kf, Xf, plane = K0, X0, plane0
+        cost = _total_rms(Kf, Xf, plane, r, outline_pts, str_list)
+        if best is None or cost < best[0]:
+            best = (cost, K0, X0, plane0, plane_rms, Kf, Xf, plane)
+    if best is None:
+        raise first_error
+    _, K0, X0, plane0, plane_rms, Kf, Xf, plane = best
+    stage = "refined" if refine else "initial"
     Ki = np.linalg.inv(Kf)
     Co = _cone_conics(Ki, Xf, r)
     Cs = _stripe_conics(Ki, Xf, r, plane.normal, plane.d)

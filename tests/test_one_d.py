@@ -357,3 +357,9 @@ def test_cli_one_d_bad_input(tmp_path, capsys, args, message):
     args = [str(tmp_path / x) if x.isupper() or x.endswith((".csv", ".json", ".png")) else x for x in args]
     assert cli_main(["calib", "one-d", *args]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_closed_form_from_any_sphere_set():
+    # the K-free imaged centres + linear IAC work for any three or more sphere images
+    X, conics, _ = _sphere_scene(71, n_moved=3)
+    assert np.allclose(O._closed_form_K(np.array(conics), "zero_skew"), K0, atol=1e-6 * K0[0, 0])
