@@ -13,18 +13,24 @@ becomes ``DIR/<name>.mp4`` (augmented video) + ``DIR/<name>.cameras.jsonl``;
 Engines
 -------
 ``local`` (default)
-    A :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn``
-    context (GL contexts and threads do not survive ``fork``), one worker per
-    core unless ``workers`` says otherwise; each worker makes its own GL
-    context.
+    A :class:`concurrent.futures.ProcessPoolExecutor`, one worker per core
+    unless ``workers`` says otherwise. Workers come from the ``forkserver``
+    context (``spawn`` where there is none), never a plain ``fork`` of the
+    driver, whose threads and GL state would not survive it: a server
+    process that has run nothing (no GL context, no pipeline threads)
+    imports the pipeline's modules once, and each worker is forked from it. Each worker makes its own GL context, per
+    clip. A worker that dies under a clip (crash, out of memory, killed)
+    breaks the pool; a new pool takes over and the clips that were running
+    are tried once more (a clip that kills its worker twice is ``failed``).
 ``ray``
-    One Ray task per clip (``num_cpus=1``), on the cluster at ``address`` or,
-    without one, on a local Ray started for the batch (stopped afterwards).
+    One Ray task per clip (``num_cpus=1``, retried once if its worker
+    dies), on the cluster at ``address`` or, without one, on a local Ray
+    started for the batch (stopped afterwards).
     Ray is an optional extra (``pip install "arstream[cluster]"``). On a
     cluster, every node must see the inputs and ``DIR`` at the same paths
     (a shared file system) and have arstream installed. If Ray is already
     initialised in this process (``ray.init(...)``), that instance is used
-    and left running.
+    and left running (``address`` is then not used).
 
 Only plain data crosses process boundaries: a job is a dict of paths and
 options, :func:`process_clip` (the top-level worker function) returns a
@@ -738,10 +744,11 @@ _PRELOAD = ["arstream.batch", "arstream.pipeline", "arstream.source", "arstream.
 
 
 def _worker_context():
-    """``forkserver`` where there is one: a server process started once, without threads or
-    GL, that imports the pipeline's modules once and forks each worker from itself (a worker
-    starts in milliseconds instead of re-importing for a second); else ``spawn``. Never plain
-    ``fork`` from the driver (its threads and any GL state do not survive it)."""
+    """``forkserver`` where there is one: a server process started once, that has run
+    nothing (no GL context, no pipeline threads), imports the pipeline's modules once and
+    forks each worker from itself (a worker starts in milliseconds instead of re-importing
+    for a second); else ``spawn``. Never plain ``fork`` from the driver (its threads and
+    any GL state do not survive it)."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(_PRELOAD)
@@ -971,8 +978,10 @@ def _locked(out_dir: str):
     try:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except BlockingIOError:
             raise InputError(f"another batch is writing to {out_dir}") from None
+        except OSError:  # a file system without locks: go on unguarded
+            pass
         yield
     finally:
         f.close()
@@ -1134,6 +1143,8 @@ def run(
                                 continue
                             shutil.rmtree(_work_dir(out_dir, job["name"]), ignore_errors=True)
                             res = _record(job["name"], job["input"], "failed", error=str(res))
+                        elif res["status"] in ("ok", "damaged") and not all(os.path.exists(os.path.join(out_dir, res[k])) for k in ("output", "cameras")):
+                            res = dict(res, status="failed", error=f"the outputs written on {res['host']} are not in {out_dir} here: the output folder must be on a file system every node shares")
                         records[job["name"]] = res
                         frames_done += res.get("frames", 0)
                         state.clips_done += 1

@@ -62,6 +62,52 @@ def one_run(clips: list[str], out: str, workers: int) -> dict:
     }
 
 
+def _thread_cpu() -> dict:
+    """CPU seconds of each thread of this process (Linux /proc)."""
+    out = {}
+    tick = os.sysconf("SC_CLK_TCK")
+    for t in os.listdir("/proc/self/task"):
+        try:
+            with open(f"/proc/self/task/{t}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        out[int(t)] = (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
+def profile_one(clip: str, out: str) -> dict:
+    """One clip through ``arstream.process`` in this process: its CPU time (all threads) and
+    that of its busiest thread (sampled from /proc while it runs, as the pipeline's threads
+    end with it). The pipeline is a chain of threads (decode, detect, stages, encode), so a
+    clip alone cannot be faster than its busiest thread: on an idle machine with ``c`` cores
+    it takes at least A = max(busiest, cpu / c), exactly A if its threads overlap perfectly,
+    and two at once then max(A, 2 cpu / c) — a model of the ratio that does not depend on
+    what else runs on this machine (less overlap gives a lower ratio)."""
+    import threading
+
+    import arstream
+
+    before = _thread_cpu()
+    seen: dict = {}
+    stop = threading.Event()
+
+    def sample():
+        while not stop.wait(0.1):
+            seen.update(_thread_cpu())
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+    try:
+        s = arstream.process(clip, os.path.join(out, "o.mp4"), cameras_out=os.path.join(out, "c.jsonl"), handle_signals=False)
+    finally:
+        stop.set()
+        sampler.join()
+    seen.update(_thread_cpu())
+    per_thread = sorted((cpu - before.get(tid, 0.0) for tid, cpu in seen.items() if tid != sampler.native_id), reverse=True)
+    return {"frames": s.frames, "wall_s": s.seconds, "cpu_s": s.cpu_seconds, "busiest_thread_cpu_s": per_thread[0], "second_thread_cpu_s": per_thread[1]}
+
+
 def cli_run(clips: list[str], out: str, workers: int) -> float:
     shutil.rmtree(out, ignore_errors=True)
     t0 = time.perf_counter()
@@ -107,6 +153,7 @@ def main(argv=None) -> int:
             clips.append(os.path.join(tmp, f"clip{seed}.mp4"))
             lengthen(os.path.join(d, "clip.mp4"), clips[-1], args.frames)
         one_run(clips, os.path.join(tmp, "warm"), 2)  # page cache; starts the fork server
+        prof = profile_one(clips[0], tmp)
         runs = {1: [], 2: []}
         loads = []
         for r in range(args.repeats):
@@ -142,6 +189,7 @@ def main(argv=None) -> int:
         "cores_used_sequential": round(statistics.median(x["cpu_s"] / x["wall_s"] for x in runs[1]), 2),
         "cores_used_at_once": round(statistics.median(x["cpu_s"] / x["wall_s"] for x in runs[2]), 2),
         "load_average": round(statistics.median(loads), 2),
+        "profile_one_clip": {k: round(v, 3) for k, v in prof.items()},
         "all_walls": {str(k): [round(x["wall_s"], 3) for x in v] for k, v in runs.items()},
         "command_sequential_s": round(statistics.median(cli[1]), 3) if cli[1] else None,
         "command_at_once_s": round(statistics.median(cli[2]), 3) if cli[2] else None,
@@ -154,6 +202,16 @@ def main(argv=None) -> int:
         f"  ratio at once / one after the other: {res['ratio']:.3f}  (target <= 0.65: {'met' if res['ratio'] <= 0.65 else 'NOT met'})\n"
         f"  cores kept busy: one clip alone {res['cores_one_clip_alone']}; whole run one after the other {res['cores_used_sequential']}, at once {res['cores_used_at_once']}\n"
         f"  load average during the runs: {res['load_average']} on {res['cores']} cores"
+    )
+    c = 2
+    alone = max(prof["busiest_thread_cpu_s"], prof["cpu_s"] / c)
+    model = max(alone, 2 * prof["cpu_s"] / c) / (2 * alone)
+    res["model_ratio_idle_2_cores"] = round(model, 3)
+    print(
+        f"  one clip's profile: {1e3 * prof['cpu_s'] / prof['frames']:.1f} ms CPU/frame; its busiest thread "
+        f"{1e3 * prof['busiest_thread_cpu_s'] / prof['frames']:.1f} ms, the next {1e3 * prof['second_thread_cpu_s'] / prof['frames']:.1f} ms\n"
+        f"  model for an idle 2-core machine, if a clip's threads overlapped perfectly: a clip alone keeps "
+        f"{prof['cpu_s'] / alone:.2f} cores busy, ratio {model:.3f} (less overlap: fewer cores, a lower ratio)"
     )
     if cli[1] and cli[2]:
         a, b = res["command_sequential_s"], res["command_at_once_s"]

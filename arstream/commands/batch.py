@@ -53,7 +53,7 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (made if missing)")
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("--engine", choices=("local", "ray"), default="local", help="local process pool (default) or Ray")
-    p.add_argument("--address", metavar="ADDR", help="Ray cluster to join, e.g. auto or ray://head:10001 (default: start a local Ray)")
+    p.add_argument("--address", metavar="ADDR", help="Ray cluster to join: auto (the cluster this machine is a node of) or HOST:PORT of its head (default: start a local Ray)")
     p.add_argument("--workers", type=int, metavar="N", help="clips at once (default: the cores, or the Ray cluster's CPUs)")
     p.add_argument("--force", action="store_true", help="redo clips whose outputs are already complete")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
