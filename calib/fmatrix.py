@@ -887,6 +887,11 @@ def gold_standard(x1, x2, *, cost: str = "reprojection") -> FundamentalResult:
     Returns
     -------
     FundamentalResult (``method = "gold_standard/<cost>"``).
+
+    Raises
+    ------
+    ValueError
+        As :func:`eight_point` and :func:`refine`.
     """
     init = eight_point(x1, x2)
     r = refine(init.F, x1, x2, cost=cost)
