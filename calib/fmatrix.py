@@ -1314,10 +1314,10 @@ def estimate(
     max_iterations : int
         Cap on the samples of each RANSAC stage.
     refine_cost : {"sampson", "reprojection"}
-        The final refinement (see ``_polish``): Sampson LM on the inliers until
-        the inlier set is stable, adaptive trimming at 3 sigma, a Cauchy-loss
-        pass; with ``"reprojection"`` the gold standard (:func:`refine`) on the
-        final inliers as the last step.
+        The final refinement: Sampson LM on the inliers until the inlier set
+        is stable, adaptive trimming at 3 sigma (sigma from the inliers'
+        median residual), a Cauchy-loss pass; with ``"reprojection"`` the gold
+        standard (:func:`refine`) on the final inliers as the last step.
     seed : int, numpy Generator or None
         Randomness of the sampling (fixed by default, so results repeat).
 
