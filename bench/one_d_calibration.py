@@ -20,7 +20,7 @@ Monte Carlo on synthetic data with exact truth and fixed seeds:
 
 Usage::
 
-    .venv/bin/python bench/one_d_calibration.py [--trials 100] [--sphere-trials 50] [--json out.json]
+    .venv/bin/python bench/one_d_calibration.py [--trials 60] [--sphere-trials 30] [--json out.json]
 """
 
 from __future__ import annotations
@@ -245,8 +245,8 @@ def noise_free():
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--trials", type=int, default=100, help="trials per noise level for Zhang's setup (paper: 120)")
-    ap.add_argument("--sphere-trials", type=int, default=50, help="trials per sphere layout")
+    ap.add_argument("--trials", type=int, default=60, help="trials per noise level for Zhang's setup (paper: 120; README figures: 100)")
+    ap.add_argument("--sphere-trials", type=int, default=30, help="trials per sphere layout (README figures: 50)")
     ap.add_argument("--json", help="write the numbers to this file")
     args = ap.parse_args(argv)
     t0 = time.time()
