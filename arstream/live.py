@@ -172,16 +172,19 @@ class RerunLogger:
     jpeg_quality : int, 1..100
     warn : callable(str), non-fatal problems
     name : str, shown as the recording's name
+    analysis : arstream.pipeline.Analysis, optional: detections are at its size
+        and are drawn mapped to frame pixels
 
     Two pipeline stages: ``input_stage`` (before rendering: input frame,
     detections, camera, scalars) and ``output_stage`` (after: the composite;
     its ``close`` flushes and closes the recording).
     """
 
-    def __init__(self, mode, width: int, height: int, *, bind: str = "127.0.0.1", port: int = 9876, jpeg_quality: int = 75, warn=None, name: str = "arstream"):
+    def __init__(self, mode, width: int, height: int, *, bind: str = "127.0.0.1", port: int = 9876, jpeg_quality: int = 75, warn=None, name: str = "arstream", analysis=None):
         import rerun as rr
 
         self.rr = rr
+        self.analysis = analysis
         self.mode = mode
         self.width, self.height = width, height
         self.jpeg = [int(cv2.IMWRITE_JPEG_QUALITY), int(min(max(jpeg_quality, 1), 100))]
@@ -189,7 +192,8 @@ class RerunLogger:
         self.enabled = True
         self.uri = None
         self.rec = rr.RecordingStream("arstream", recording_id=uuid.uuid4())
-        self.rec.send_recording_name(name) if hasattr(self.rec, "send_recording_name") else None
+        if hasattr(self.rec, "send_recording_name"):
+            self.rec.send_recording_name(name)
         bp = blueprint()
         kind, arg = mode
         if kind == "save":
@@ -259,12 +263,11 @@ class RerunLogger:
         from geometry.pitch import PitchModel
 
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        lines = [np.column_stack([p, np.zeros(len(p))]) for p in PitchModel().polylines(0.5)]
-        rec.log("world/pitch", rr.LineStrips3D(lines, colors=[(230, 230, 230)], radii=[0.12]), static=True)
+        self._pitch_pts = [np.column_stack([p, np.zeros(len(p))]) for p in PitchModel().polylines(0.5)]
+        rec.log("world/pitch", rr.LineStrips3D(self._pitch_pts, colors=[(230, 230, 230)], radii=[0.12]), static=True)
         names = {"camera/focal": "focal length (px)", "camera/pan": "pan (deg)", "camera/tilt": "tilt (deg)", "camera/confidence": "confidence"}
         for path, label in names.items():
             rec.log(path, rr.SeriesLines(names=[label]), static=True)
-        self._pitch_pts = [np.column_stack([p, np.zeros(len(p))]) for p in PitchModel().polylines(0.5)]
 
     def _time(self, item) -> None:
         self.rec.set_time("frame", sequence=int(item.index))
@@ -284,12 +287,15 @@ class RerunLogger:
         self._time(item)
         rec.log("input/frame", rr.EncodedImage(contents=self._jpeg(item.frame.image), media_type="image/jpeg"))
         det = item.detections
+        an = self.analysis
         lines = [np.asarray(getattr(l, "endpoints", ()), float).reshape(-1, 2) for l in (getattr(det, "lines", None) or [])]
-        lines = [l for l in lines if len(l) >= 2]
+        lines = [an.points(l) if an is not None else l for l in lines if len(l) >= 2]
         rec.log("input/lines", rr.LineStrips2D(lines, colors=[_LINE_COLOR], radii=[1.5]))
         strips = []
         for e in getattr(det, "ellipses", None) or []:
             ell = getattr(e, "ellipse", None)
+            if ell is not None and an is not None:
+                ell = an.ellipse(ell)
             if ell is not None and hasattr(ell, "points"):
                 p = ell.points(96)
                 strips.append(np.vstack([p, p[:1]]))

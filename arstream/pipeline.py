@@ -68,6 +68,7 @@ from arstream.source import Frame, VideoSource, i420_planes
 __all__ = [
     "Item",
     "Stage",
+    "Analysis",
     "DetectStage",
     "MatteStage",
     "ThreadedStage",
@@ -90,6 +91,9 @@ __all__ = [
 #: Default lag (frames) of the offline smoother.
 DEFAULT_LAG = 10
 
+#: Default width (pixels) of the frames detection and tracking work on (see :class:`Analysis`).
+DEFAULT_ANALYSIS_WIDTH = 960
+
 
 # --------------------------------------------------------------------------- items and stages
 @dataclass
@@ -107,6 +111,7 @@ class Item:
     timings : stage name -> milliseconds spent on this frame
     owned : True when ``detections`` and ``matte`` are private copies (not views
         into buffers the detector reuses)
+    analysis : the frame at the analysis size (BGR), made once for detection and tracking
     """
 
     frame: Frame
@@ -116,6 +121,7 @@ class Item:
     drawn: bool = False
     timings: dict = field(default_factory=dict)
     owned: bool = False
+    analysis: np.ndarray | None = None
 
     @property
     def index(self) -> int:
@@ -152,25 +158,105 @@ def _optional(module: str, attr: str):
     return getattr(importlib.import_module(module), attr, None)
 
 
+class Analysis:
+    """The frame size detection and tracking work at, and the map back to frame pixels.
+
+    Broadcast frames carry far more pixels than the camera needs: detecting
+    and solving on a frame scaled to ``analysis_width`` pixels wide costs a
+    fraction of full resolution, and the solved camera is mapped back exactly
+    (``K_frame = S K_analysis``; R, t and the distortion, which lives in
+    normalised coordinates, are unchanged). Pixel centres are at integer
+    coordinates in both (DESIGN.md section 2), so analysis pixel ``u`` is
+    frame pixel ``sx u + (sx - 1) / 2``.
+
+    The scaled frame comes straight from the decoder's I420 planes (luma and
+    chroma resized on their own, one colour conversion at the small size):
+    the full-size BGR frame is never made on this path.
+
+    Parameters
+    ----------
+    width, height : frame size
+    analysis_width : int or None; None or >= width: full resolution. Rounded
+        to even; the height keeps the aspect ratio (even too).
+    """
+
+    def __init__(self, width: int, height: int, analysis_width: int | None = None):
+        self.W, self.H = int(width), int(height)
+        if analysis_width is None or analysis_width <= 0 or analysis_width >= width:
+            w, h = self.W, self.H
+        else:
+            w = max(16, int(round(analysis_width / 2.0)) * 2)
+            h = max(16, int(round(self.H * w / self.W / 2.0)) * 2)
+        self.w, self.h = w, h
+        self.full = (w, h) == (self.W, self.H)
+        self.sx, self.sy = self.W / w, self.H / h
+        #: (3, 3) analysis pixels -> frame pixels
+        self.S = np.array([[self.sx, 0.0, (self.sx - 1) / 2], [0.0, self.sy, (self.sy - 1) / 2], [0.0, 0.0, 1.0]])
+
+    def image(self, item: Item) -> np.ndarray:
+        """BGR (h, w, 3) of the item's frame at the analysis size (cached on the item)."""
+        if self.full:
+            return item.frame.image
+        if item.analysis is None:
+            f = item.frame
+            if f.yuv is not None and not f.has_image:
+                buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
+                src, dst = i420_planes(f.yuv, f.width, f.height), i420_planes(buf, self.w, self.h)
+                cv2.resize(src[0], (self.w, self.h), dst=dst[0], interpolation=cv2.INTER_AREA)
+                for k in (1, 2):
+                    cv2.resize(src[k], (self.w // 2, self.h // 2), dst=dst[k], interpolation=cv2.INTER_AREA)
+                item.analysis = cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420)
+            else:
+                item.analysis = cv2.resize(f.image, (self.w, self.h), interpolation=cv2.INTER_AREA)
+        return item.analysis
+
+    def camera(self, cam):
+        """The camera of the full frame from the camera of the analysis image."""
+        if self.full or cam is None:
+            return cam
+        from geometry.camera import Camera
+
+        return Camera(K=self.S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+
+    def points(self, pts) -> np.ndarray:
+        """(N, 2) analysis pixels -> frame pixels."""
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.full:
+            return pts
+        return pts * (self.sx, self.sy) + ((self.sx - 1) / 2, (self.sy - 1) / 2)
+
+    def ellipse(self, ell):
+        """A geometry.conics.Ellipse in analysis pixels -> frame pixels (exact for sx == sy)."""
+        if self.full or ell is None:
+            return ell
+        from geometry.conics import ellipse_from_conic
+
+        Sinv = np.linalg.inv(self.S)
+        return ellipse_from_conic(Sinv.T @ ell.conic @ Sinv)
+
+
 class DetectStage(Stage):
-    """Pitch markings and the grass matte: :class:`arstream.detect.Detector`.
+    """Pitch markings and the grass matte: :class:`arstream.detect.Detector`,
+    on the frame at the analysis size (see :class:`Analysis`).
 
     Without a detector module every item passes with ``detections=None``
-    (``available`` is False).
+    (``available`` is False). ``item.matte`` is the detector's grass mask, at
+    the analysis size (the render stage scales it up).
     """
 
     name = "detect"
 
-    def __init__(self, width: int, height: int, detector=None):
+    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None):
+        self.analysis = analysis or Analysis(width, height)
         if detector is None:
             cls = _optional("arstream.detect", "Detector")
-            detector = cls(width, height) if cls is not None else None
+            detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
         self.detector = detector
         self.available = detector is not None
 
     def process(self, item: Item) -> list[Item]:
         if self.detector is not None:
-            det = self.detector.process(item.frame.image)
+            det = self.detector.process(self.analysis.image(item))
             item.detections = det
             item.matte = getattr(det, "grass_mask", None)
         return [item]
@@ -304,10 +390,11 @@ class TrackStage(Stage):
 
     name = "track"
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None):
+        self.analysis = analysis or Analysis(width, height)
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
-            tracker = cls(width, height, fps=fps, lag=lag) if cls is not None else None
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag) if cls is not None else None
         self.tracker = tracker
         self.available = tracker is not None
         self.lag = int(lag)
@@ -318,13 +405,14 @@ class TrackStage(Stage):
         if self.tracker is None:
             item.estimate = CameraEstimate.lost(item.index, item.pts, reason="no tracker")
             return [item]
-        estimates = self.tracker.process(item.index, item.pts, item.frame.image, item.detections)
+        estimates = self.tracker.process(item.index, item.pts, self.analysis.image(item), item.detections)
         self.held[item.index] = item
         out = self._release(estimates)
         if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
             if item.matte is not None and not item.owned:
                 item.matte = item.matte.copy()  # the detector reuses its buffers
             item.detections = None
+            item.analysis = None
             if item.frame.yuv is not None:
                 item.frame._image = None  # the BGR copy is rebuilt if anyone asks
             if len(self.held) > self.max_held:
@@ -337,6 +425,8 @@ class TrackStage(Stage):
             it = self.held.pop(est.frame, None)
             if it is None:
                 raise ArstreamError(f"the tracker returned an estimate for frame {est.frame}, which is not waiting; this is a bug in arstream.track")
+            if est.camera is not None and not self.analysis.full:
+                est = CameraEstimate(est.frame, est.pts, est.status, self.analysis.camera(est.camera), est.confidence, est.info)
             it.estimate = est
             out.append(it)
         return out
@@ -477,12 +567,21 @@ class RenderStage(Stage):
             except GLContextError as exc:
                 raise ArstreamError(f"{exc} (or leave out -o to write only cameras.jsonl)") from None
         self.renderer = renderer
+        self._matte = None
+
+    def _full_matte(self, matte):
+        """The grass matte at the frame size (detected at the analysis size: scaled up, smoothly)."""
+        if matte is None or matte.shape[:2] == (self.height, self.width):
+            return matte
+        if self._matte is None:
+            self._matte = np.empty((self.height, self.width), np.uint8)
+        return cv2.resize(matte, (self.width, self.height), dst=self._matte, interpolation=cv2.INTER_LINEAR)
 
     def process(self, item: Item) -> list[Item]:
         cam = item.estimate.camera if item.estimate is not None else None
         if cam is None:
             return [item]
-        ov = self.renderer.render(cam, grass_matte=item.matte)
+        ov = self.renderer.render(cam, grass_matte=self._full_matte(item.matte))
         if ov.empty:
             return [item]
         f = item.frame
@@ -1021,6 +1120,7 @@ def process(
     max_frames: int | None = None,
     handle_signals: bool = True,
     overlap: bool = True,
+    analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
 ) -> Summary:
     """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
 
@@ -1041,6 +1141,8 @@ def process(
     max_frames : stop after this many frames
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
+    analysis_width : width (pixels) of the frames detection and tracking work on;
+        None or 0: full resolution (see :class:`Analysis`)
 
     Returns
     -------
@@ -1059,10 +1161,11 @@ def process(
     _check_output(cameras_out, input)
     with _open(input) as src:
         W, H = src.width, src.height
+        an = Analysis(W, H, analysis_width)
         stages = _build(
             [
-                lambda: _overlapped(DetectStage(W, H), overlap),
-                lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect")),
+                lambda: _overlapped(DetectStage(W, H, analysis=an), overlap),
+                lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -1108,7 +1211,7 @@ def render_clip(
     with _open(input) as src:
         W, H = src.width, src.height
         if key == "detector":
-            make_key = lambda: _overlapped(DetectStage(W, H), overlap)  # noqa: E731
+            make_key = lambda: _overlapped(DetectStage(W, H, analysis=Analysis(W, H, DEFAULT_ANALYSIS_WIDTH)), overlap)  # noqa: E731
         elif key == "green":
             make_key = lambda: _overlapped(MatteStage.green(W, H), overlap)  # noqa: E731
         elif callable(key):
@@ -1147,6 +1250,7 @@ def stream(
     progress: Callable | None = None,
     handle_signals: bool = True,
     warn: Callable[[str], None] | None = None,
+    analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
 ) -> Summary:
     """Live mode: causal tracking (no look-ahead) of a file, URL or capture device,
     logged to rerun. Mirrors ``arstream stream --source SRC [--rerun ...] [--realtime]``.
@@ -1162,6 +1266,7 @@ def stream(
     bind, port : address of the rerun gRPC server for ``serve``
     jpeg_quality : quality of the JPEG frames sent to rerun
     warn : callable(str) for non-fatal problems (unreachable viewer); default stderr
+    analysis_width : as :func:`process`
     """
     from arstream.live import RerunLogger, parse_rerun
 
@@ -1172,19 +1277,20 @@ def stream(
     with _open(source, format=format, options=options) as src:
         W, H = src.width, src.height
         rt = src.is_live if realtime is None else bool(realtime)
+        an = Analysis(W, H, analysis_width)
         logger_box: list = []
 
         def make_logger():
             if mode is None:
                 return None
-            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path))
+            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an)
             logger_box.append(lg)
             return lg.input_stage
 
         stages = _build(
             [
-                lambda: DetectStage(W, H),
-                lambda: TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect")),
+                lambda: DetectStage(W, H, analysis=an),
+                lambda: TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an),
                 make_logger,
                 lambda: RenderStage(W, H, scene),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),

@@ -44,6 +44,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("--cameras-out", metavar="FILE", help="write the camera of every frame as JSON lines (cameras.jsonl)")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
+    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 960)")
     p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
     p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
     p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")
@@ -55,13 +56,15 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from arstream.errors import InputError
-    from arstream.pipeline import Interrupted, process
+    from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Interrupted, process
     from arstream.progress import Progress
 
     if args.output is None and args.cameras_out is None:
         raise InputError("nothing to write: give -o OUT.mp4, --cameras-out FILE, or both")
     if args.lag < 0:
         raise InputError(f"--lag must be 0 or more, got {args.lag}")
+    if args.analysis_width is not None and 0 < args.analysis_width < 64:
+        raise InputError(f"--analysis-width must be 0 (full resolution) or at least 64, got {args.analysis_width}")
     bar = Progress(None, label="process", stream=sys.stderr)
     if args.quiet:
         bar.enabled = False
@@ -78,6 +81,7 @@ def run(args) -> int:
                 audio=not args.no_audio,
                 progress=bar.update,
                 max_frames=args.frames,
+                analysis_width=DEFAULT_ANALYSIS_WIDTH if args.analysis_width is None else (args.analysis_width or None),
             )
     except Interrupted as exc:
         _report(exc.summary, args)

@@ -68,6 +68,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("-o", "--output", metavar="OUT.mp4", help="also record the augmented video")
     p.add_argument("--cameras-out", metavar="FILE", help="also write the cameras as JSON lines")
+    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 960)")
     p.add_argument("--jpeg-quality", type=int, default=75, metavar="Q", help="quality of the JPEG frames sent to rerun (default: 75)")
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
@@ -77,10 +78,13 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from arstream.commands.process import _report
-    from arstream.pipeline import Interrupted, stream
+    from arstream.errors import InputError
+    from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Interrupted, stream
     from arstream.progress import Progress
 
     rerun = None if args.rerun == ["none"] else args.rerun
+    if args.analysis_width is not None and 0 < args.analysis_width < 64:
+        raise InputError(f"--analysis-width must be 0 (full resolution) or at least 64, got {args.analysis_width}")
     bar = Progress(None, label="stream", stream=sys.stderr)
     if args.quiet:
         bar.enabled = False
@@ -100,6 +104,7 @@ def run(args) -> int:
                 jpeg_quality=args.jpeg_quality,
                 max_frames=args.frames,
                 progress=bar.update,
+                analysis_width=DEFAULT_ANALYSIS_WIDTH if args.analysis_width is None else (args.analysis_width or None),
             )
     except Interrupted as exc:
         _report(exc.summary, args)
