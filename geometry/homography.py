@@ -63,7 +63,7 @@ def _dlt(X_src: np.ndarray, X_dst: np.ndarray) -> np.ndarray:
     A[0::2, 6:9] = yd * Xs
     A[1::2, 0:3] = wd * Xs
     A[1::2, 6:9] = -xd * Xs
-    _, s, Vt = np.linalg.svd(A)
+    _, s, Vt = np.linalg.svd(A, full_matrices=len(A) < 9)  # thin SVD: A is 2N x 9
     s9 = np.zeros(9)
     s9[: len(s)] = s
     return Vt[-1].reshape(3, 3), s9
