@@ -264,20 +264,46 @@ class Detector:
             w = np.clip(prof - base, 0, None)
             off = (w * offs[None, :]).sum(1) / np.maximum(w.sum(1), 1e-6)
             if axis == 1:
-                pts.append(np.column_stack([xs + off, ys.astype(np.float64)]))
+                pts.append(np.column_stack([xs + off, ys.astype(np.float64), np.ones(len(xs))]))
             else:
-                pts.append(np.column_stack([xs.astype(np.float64), ys + off]))
+                pts.append(np.column_stack([xs.astype(np.float64), ys + off, np.ones(len(xs))]))
+        # a coarse horizontal pass (3 tau) for near-vertical lines smeared by fast pans:
+        # used for straight lines only (it also answers to the edges of players, which
+        # would pull the ellipse fits)
+        t2 = 3 * t
+        a = np.zeros_like(g)
+        b = np.zeros_like(g)
+        a[:, t2:] = cv2.subtract(g[:, t2:], g[:, :-t2])
+        b[:, :-t2] = cv2.subtract(g[:, :-t2], g[:, t2:])
+        m2 = (cv2.min(a, b) > thr) & (grass > 0)
+        near_fine = cv2.dilate(mh.astype(np.uint8), np.ones((1, 2 * t2 + 1), np.uint8)) > 0
+        # not on near-horizontal lines (found by the fine vertical test), where a wide
+        # horizontal window runs along the line instead of across it
+        near_fine |= cv2.dilate(mv.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+        prev = np.roll(gi, 1, axis=1)
+        nxt = np.roll(gi, -1, axis=1)
+        ys, xs = np.nonzero(m2 & ~near_fine & (gi >= prev) & (gi >= nxt))
+        if len(ys):
+            offs = np.arange(-t2, t2 + 1)
+            prof = gf[ys[:, None], np.clip(xs[:, None] + offs[None, :], 0, W - 1)]
+            base = np.minimum(prof[:, 0], prof[:, -1])[:, None]
+            w = np.clip(prof - base, 0, None)
+            off = (w * offs[None, :]).sum(1) / np.maximum(w.sum(1), 1e-6)
+            pts.append(np.column_stack([xs + off, ys.astype(np.float64), np.zeros(len(xs))]))
         lm = self._line_mask
         lm[:] = 0
         if not pts:
+            self._fine = np.zeros(0, bool)
             return np.zeros((0, 2))
-        P = np.concatenate(pts)
+        P3 = np.concatenate(pts)
+        P, fine = P3[:, :2], P3[:, 2] > 0
         # plateau pixels of one cross-section give the same centre, and a pixel may pass both
         # tests: keep one point per half-pixel cell
         key = np.round(P * 2).astype(np.int64)
         key = key[:, 1] * (2 * W + 2) + key[:, 0]
         _, first = np.unique(key, return_index=True)
-        P = P[np.sort(first)]
+        first = np.sort(first)
+        P, fine = P[first], fine[first]
         ix = np.clip(np.round(P).astype(np.int64), 0, [W - 1, H - 1])
         lm[ix[:, 1], ix[:, 0]] = 255
         # drop blobs: white kits, the ball, graphics give short clusters, lines long ones
@@ -291,10 +317,11 @@ class Detector:
             good = ext >= max(12, 0.012 * W)
             good[0] = False
             keep_px = good[lab[ix[:, 1] // 2, ix[:, 0] // 2]]
-            P = P[keep_px]
+            P, fine = P[keep_px], fine[keep_px]
             lm[:] = 0
             ix = ix[keep_px]
             lm[ix[:, 1], ix[:, 0]] = 255
+        self._fine = fine
         return P
 
     # --- straight lines --------------------------------------------------------------
@@ -358,13 +385,15 @@ class Detector:
             # sagitta of a quadratic through the residuals rejects arcs of the circles
             if length < self.min_line_length or len(pts) < 0.5 * length or fit.rms > 1.0:
                 continue
+            idx_all = np.flatnonzero(sel)[keep_idx]
+            if np.mean(self._fine[idx_all]) < 0.5 and length < 4 * self.min_line_length:
+                continue  # found mostly by the coarse pass: only long lines (players' edges are short)
             tn = (tt - 0.5 * (tt.max() + tt.min())) / (0.5 * length)
             res = pts @ fit.line[:2] + fit.line[2]
             quad = np.polyfit(tn, res, 2)[0]
             if abs(quad) > 0.6:
                 continue
             e = np.array([pts[np.argmin(tt)], pts[np.argmax(tt)]])
-            idx_all = np.flatnonzero(sel)[keep_idx]
             used[idx_all] = True
             out.append(DetectedLine(line=fit.line, endpoints=e, points=pts, length=length, normal_sigma=fit.normal_sigma, angle_sigma=fit.angle_sigma))
             if len(out) >= 16:
@@ -483,11 +512,12 @@ class Detector:
             P = self._line_pixels(gray)
         else:
             self._line_mask[:] = 0
+            self._fine = np.zeros(0, bool)
             P = np.zeros((0, 2))
         t2 = time.perf_counter()
         lines = self._lines(P) if visible else []
         t3 = time.perf_counter()
-        ells = self._ellipses(P, lines) if visible else []
+        ells = self._ellipses(P[self._fine], lines) if visible and len(P) else []
         if ells:
             # a flat stretch of an ellipse can pass for a short line: drop lines lying on one
             lines = [l for l in lines if not any(np.median(np.abs(sampson_distance(l.points, e.conic))) < 1.5 for e in ells)]
