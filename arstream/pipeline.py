@@ -105,7 +105,8 @@ class Item:
     frame : Frame (``frame.yuv`` is composited in place by the render stage)
     detections : the detector's result, or None (missing detector, or
         released while the frame waited for its smoothed camera)
-    matte : (H, W) uint8 grass matte (255 = pitch) for keying, or None
+    matte : uint8 grass matte (255 = pitch) for keying, at the analysis size
+        (the render stage scales it to the frame), or None
     estimate : CameraEstimate once the tracker has given it
     drawn : True when graphics were composited onto the frame
     timings : stage name -> milliseconds spent on this frame
