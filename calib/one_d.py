@@ -101,6 +101,9 @@ import scipy.linalg
 import scipy.optimize
 
 from calib._fit import conic_to_vec6, sampson_with_jacobian
+from calib.sphere import _K_from_params as _K_of
+from calib.sphere import _model_name
+from calib.sphere import _params_from_K as _params_of
 from calib.sphere import centre_direction, intrinsics_from_spheres
 from geometry.camera import K_from_iac
 from geometry.conics import ellipse_distance, ellipse_from_conic, normalize_conic, split_degenerate_conic
@@ -208,31 +211,6 @@ class OneDCalibration:
 # --------------------------------------------------------------------------
 
 _N_PARAMS = {"square_pixels": 3, "zero_skew": 4, "general": 5}
-
-
-def _model_name(square_pixels: bool, zero_skew: bool) -> str:
-    if square_pixels and not zero_skew:
-        raise ValueError("square_pixels=True requires zero_skew=True (square pixels have no skew)")
-    return "square_pixels" if square_pixels else ("zero_skew" if zero_skew else "general")
-
-
-def _K_of(p: np.ndarray, model: str) -> np.ndarray:
-    """Calibration matrix (3, 3) from the model's parameters."""
-    if model == "square_pixels":
-        return np.array([[p[0], 0.0, p[1]], [0.0, p[0], p[2]], [0.0, 0.0, 1.0]])
-    if model == "zero_skew":
-        return np.array([[p[0], 0.0, p[2]], [0.0, p[1], p[3]], [0.0, 0.0, 1.0]])
-    return np.array([[p[0], p[2], p[3]], [0.0, p[1], p[4]], [0.0, 0.0, 1.0]])
-
-
-def _params_of(K: np.ndarray, model: str) -> np.ndarray:
-    """Model parameters of ``K`` (projected onto the model: mean focal for square pixels)."""
-    K = K / K[2, 2]
-    if model == "square_pixels":
-        return np.array([0.5 * (K[0, 0] + K[1, 1]), K[0, 2], K[1, 2]])
-    if model == "zero_skew":
-        return np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
-    return np.array([K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2]])
 
 
 def _iac_basis(model: str) -> np.ndarray:

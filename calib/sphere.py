@@ -301,6 +301,8 @@ def _K_from_params(p: np.ndarray, model: str) -> np.ndarray:
 
 
 def _params_from_K(K: np.ndarray, model: str) -> np.ndarray:
+    """Model parameters of ``K`` (projected onto the model: mean focal for square pixels)."""
+    K = K / K[2, 2]
     if model == "square_pixels":
         return np.array([0.5 * (K[0, 0] + K[1, 1]), K[0, 2], K[1, 2]])
     if model == "zero_skew":
