@@ -12,6 +12,14 @@ from arstream.errors import InputError
 IMAGE_EXT = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp"}
 
 
+def add_frame_arguments(parser, *, draw_help: str) -> None:
+    """The arguments of the single-frame commands: INPUT, --frame, --json, --draw."""
+    parser.add_argument("input", help="image file (PNG, JPEG, ...) or video")
+    parser.add_argument("--frame", type=int, default=0, help="frame index when INPUT is a video (default: 0)")
+    parser.add_argument("--json", action="store_true", help="print JSON (default: a short summary)")
+    parser.add_argument("--draw", metavar="OUT.png", help=draw_help)
+
+
 def read_frame(path: str, frame: int = 0) -> np.ndarray:
     """BGR uint8 (H, W, 3) image of ``path`` (an image) or of frame ``frame`` of a video.
 

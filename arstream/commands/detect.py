@@ -17,10 +17,9 @@ def register(subparsers) -> None:
             "DESIGN.md conventions); --draw writes the detections over the frame."
         ),
     )
-    p.add_argument("input", help="image file (PNG, JPEG, ...) or video")
-    p.add_argument("--frame", type=int, default=0, help="frame index when INPUT is a video (default: 0)")
-    p.add_argument("--json", action="store_true", help="print JSON (default: a short summary)")
-    p.add_argument("--draw", metavar="OUT.png", help="write the frame with line pixels, lines and ellipses drawn")
+    from arstream.framein import add_frame_arguments
+
+    add_frame_arguments(p, draw_help="write the frame with line pixels, lines and ellipses drawn")
     p.set_defaults(func=run)
 
 

@@ -18,10 +18,9 @@ def register(subparsers) -> None:
             "cameras.jsonl record."
         ),
     )
-    p.add_argument("input", help="image file (PNG, JPEG, ...) or video")
-    p.add_argument("--frame", type=int, default=0, help="frame index when INPUT is a video (default: 0)")
-    p.add_argument("--json", action="store_true", help="print the full JSON record (default: a short summary)")
-    p.add_argument("--draw", metavar="OUT.png", help="write the image with the projected pitch model drawn over it")
+    from arstream.framein import add_frame_arguments
+
+    add_frame_arguments(p, draw_help="write the image with the projected pitch model drawn over it")
     p.set_defaults(func=run)
 
 
