@@ -36,8 +36,9 @@ closed, then :class:`Interrupted` (a ``KeyboardInterrupt``) is raised with the
 signal number and the :class:`Summary`. A second signal skips the flush
 (outputs are still closed; signals during the closing itself are ignored).
 
-Live mode (``realtime=True``): the decode thread paces a file to its clock
-(a live source paces itself); the queue to the main thread holds at most one
+Live mode (``realtime=True``): the decode thread paces the source to its
+clock (a file, or a network stream delivered faster than real time; a stall
+re-anchors the clock); the queue to the main thread holds at most one
 frame and a frame older than two frame intervals when its turn comes is
 dropped (counted in ``Summary.dropped``), so the pipeline adds at most about
 two frames of latency and never falls behind.
@@ -909,7 +910,7 @@ class Pipeline:
                     wait = anchor[0] + (frame.pts - anchor[1]) - now
                     if wait > 1.0 or wait < -2 * interval:  # a jump in the clock, or the source stalled: re-anchor
                         anchor = (now, frame.pts)
-                    elif wait > 0 and not self.source.is_live:
+                    elif wait > 0:  # ahead of the clock (a file, or a burst from the network): wait
                         if self._stop.wait(wait):
                             break
                 if not box.put(("frame", frame, time.perf_counter())):

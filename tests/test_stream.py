@@ -155,3 +155,37 @@ def test_spawn_without_display_warns_and_keeps_going(clip, tmp_path, capsys, mon
     assert rc == 0
     assert "warning: no display to open a rerun viewer" in capsys.readouterr().err
     assert len(read_jsonl(tmp_path / "c.jsonl")) == 2
+
+
+def test_network_source_is_paced_and_rebased(clip, tmp_path, capsys):
+    """An MPEG-TS stream over HTTP: a URL source is real-time by default (paced, drops
+    reported), and a recording of it starts at time 0."""
+    import functools
+    import threading
+    from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+
+    import av
+
+    with av.open(str(clip / "clip.mp4")) as i, av.open(str(tmp_path / "clip.ts"), "w") as o:
+        v = i.streams.video[0]
+        ov = o.add_stream_from_template(v)
+        for p in i.demux(v):
+            if p.dts is not None:
+                p.stream = ov
+                o.mux(p)
+    handler = functools.partial(SimpleHTTPRequestHandler, directory=str(tmp_path))
+    handler.log_message = lambda *a, **k: None
+    server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}/clip.ts"
+        rc = main(["stream", "--source", url, "--rerun", "none", "-o", str(tmp_path / "rec.mp4"), "-q", "--json"])
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert rc == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["frames"] >= 1 and s["frames"] + s["dropped"] == 10 and s["seconds"] >= 9 / 25
+    with av.open(str(tmp_path / "rec.mp4")) as c:
+        pts = [f.pts for f in c.decode(video=0)]
+    assert len(pts) == s["frames"] and pts[0] == 0
