@@ -24,7 +24,8 @@ rerun modes:
   save FILE.rrd     write a recording (open it later with: rerun FILE.rrd)
   connect [URL]     stream to a running viewer (default rerun+http://127.0.0.1:9876/proxy)
   serve             serve gRPC on --bind:--port (127.0.0.1:9876); connect a viewer
-                    with: rerun rerun+http://127.0.0.1:9876/proxy
+                    with: rerun rerun+http://127.0.0.1:9876/proxy (the server
+                    keeps up to 1 GiB for late viewers and stops with the stream)
   none              no rerun logging
   An unreachable viewer is a warning: processing goes on without rerun.
 
