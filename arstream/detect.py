@@ -475,7 +475,7 @@ class Detector:
             pts = pts[inl]
             cov = _coverage(pts, e)
             rms = float(np.sqrt(np.mean(d[inl] ** 2)))
-            if cov < 0.25 or rms > 1.0 or not self._plausible(e):
+            if cov < 0.3 or rms > 0.75 or not self._plausible(e):
                 continue
             # support density: a painted ellipse is dense along its supported arcs
             a, b = e.axes
@@ -494,7 +494,7 @@ class Detector:
         a, b = e.axes
         W, H = self.width, self.height
         cx, cy = e.center
-        return 0.04 * W < a < 3.0 * W and b > 6 and b / a > 0.06 and -W < cx < 2 * W and -H < cy < 2 * H
+        return 0.04 * W < a < 3.0 * W and b > 12 * W / 1280 and b / a > 0.06 and -W < cx < 2 * W and -H < cy < 2 * H
 
     # --- public ----------------------------------------------------------------------
     def process(self, image: np.ndarray) -> Detections:
