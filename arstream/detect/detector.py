@@ -1,0 +1,355 @@
+"""The detection stage: :class:`Detector` (one per clip) and :func:`detect`."""
+
+from __future__ import annotations
+
+import time
+
+import cv2
+import numpy as np
+
+from geometry.lines import fit_line
+
+from .ellipses import find_ellipses
+from .grass import GrassModel, grass_masks
+from .results import DetectedEllipse, DetectedLine, Detections
+from .ridges import ridge_points
+from .segments import group_lines
+
+__all__ = ["Detector", "detect"]
+
+_K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+_K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
+
+
+class Detector:
+    """Pitch detection for the frames of one clip.
+
+    One object per clip: it keeps its buffers between frames (no per-frame
+    allocation of image-sized arrays) and adapts its grass colour model and
+    its line-width scale over the frames.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels (at least 16 x 16).
+    work_width : int
+        Ridges are searched on the frame shrunk by the integer factor
+        ``max(1, width // work_width)`` (2 at 720p, 3 at 1080p).
+    ridge_threshold : float, optional
+        Least contrast (grey levels) of a line over the grass on both sides;
+        by default 12 % of the grass's mean luma, at least 6.
+    min_line_length : float
+        Shortest straight line reported (frame pixels).
+    tau : float, optional
+        Half-width bound (frame pixels) of the widest line; by default it
+        follows the line widths measured on previous frames.
+    min_grass : float
+        Least share of the frame that must be grass for a pitch view.
+    max_ellipses : int
+        Most ellipses reported.
+    """
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        *,
+        work_width: int = 640,
+        ridge_threshold: float | None = None,
+        min_line_length: float = 50.0,
+        tau: float | None = None,
+        min_grass: float = 0.1,
+        max_ellipses: int = 3,
+    ):
+        try:
+            width, height = int(width), int(height)
+        except (TypeError, ValueError):
+            raise ValueError(f"frame size must be integers, got {width!r} x {height!r}") from None
+        if width < 16 or height < 16:
+            raise ValueError(f"frame size must be at least 16x16, got {width}x{height}")
+        if work_width < 16:
+            raise ValueError(f"work_width must be at least 16, got {work_width}")
+        if ridge_threshold is not None and not ridge_threshold > 0:
+            raise ValueError(f"ridge_threshold must be positive, got {ridge_threshold}")
+        if tau is not None and not tau > 0:
+            raise ValueError(f"tau must be positive, got {tau}")
+        if not 0.0 < min_grass < 1.0:
+            raise ValueError(f"min_grass must be in (0, 1), got {min_grass}")
+        self.width, self.height = width, height
+        self.factor = max(1, width // int(work_width))
+        w, h = max(width // self.factor, 16), max(height // self.factor, 16)
+        self.work_size = (w, h)
+        tw, th = max(w // 4, 8), max(h // 4, 8)
+        self.tiny_size = (tw, th)
+        sx, sy = width / w, height / h
+        # working pixel centre (i) -> frame pixel: s (i + 0.5) - 0.5 (area resampling)
+        self.A_wf = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
+        self.ridge_threshold = ridge_threshold
+        self.min_line_length = float(min_line_length)
+        self.tau = tau
+        self.min_grass = float(min_grass)
+        self.max_ellipses = int(max_ellipses)
+        self.grass_model = GrassModel()
+        self._small = np.empty((h, w, 3), np.uint8)
+        self._gray = np.empty((h, w), np.uint8)
+        self._tiny = np.empty((th, tw, 3), np.uint8)
+        self._tiny_gray = np.empty((th, tw), np.uint8)
+        self._region = np.empty((h, w), np.uint8)
+        self._region_tiny = np.empty((th, tw), np.uint8)
+        self._linemask_small = np.empty((h, w), np.uint8)
+        self._scratch = np.empty((h, w), np.uint8)
+        wc, hc = max(w // 2, 8), max(h // 2, 8)
+        self._coarse_size = (wc, hc)
+        self._gray_c = np.empty((hc, wc), np.uint8)
+        self._region_c = np.empty((hc, wc), np.uint8)
+        self._occ_c = np.empty((hc, wc), np.uint8)
+        self._lab_c = np.empty((hc, wc), np.int32)
+        self._rbufs_c: dict = {}
+        self._grass_full = np.empty((height, width), np.uint8)
+        self._line_full = np.empty((height, width), np.uint8)
+        self._gbufs: dict = {}
+        self._rbufs: dict = {}
+        self.frames = 0
+
+    # -----------------------------------------------------------------------------
+    def _to_full(self, p: np.ndarray) -> np.ndarray:
+        A = self.A_wf
+        out = np.empty_like(p)
+        out[:, 0] = p[:, 0] * A[0, 0] + A[0, 2]
+        out[:, 1] = p[:, 1] * A[1, 1] + A[1, 2]
+        return out
+
+    def _check(self, image) -> None:
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
+            raise ValueError(
+                f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image).__name__)} {getattr(image, 'shape', '')}"
+            )
+        if image.shape[:2] != (self.height, self.width):
+            raise ValueError(f"image is {image.shape[1]}x{image.shape[0]}, detector expects {self.width}x{self.height}")
+
+    def _empty(self, timings, grass_small=None) -> Detections:
+        self._linemask_small[:] = 0
+        z = np.zeros((0, 2))
+        return Detections(
+            self.width, self.height, False, grass_small, self._grass_full, self._linemask_small, self._line_full, z, z.copy(), [], [], timings, self.factor
+        )
+
+    def process(self, image: np.ndarray) -> Detections:
+        """Detect grass, line pixels, straight lines and circle ellipses in one frame.
+
+        Parameters
+        ----------
+        image : (H, W, 3) uint8, BGR, the size given to the constructor
+
+        Returns
+        -------
+        Detections (arrays valid until the next call)
+        """
+        self._check(image)
+        self.frames += 1
+        t0 = time.perf_counter()
+        w, h = self.work_size
+        small = cv2.resize(image, (w, h), dst=self._small, interpolation=cv2.INTER_AREA)
+        tiny = cv2.resize(small, self.tiny_size, dst=self._tiny, interpolation=cv2.INTER_LINEAR)
+        g = grass_masks(tiny, self.grass_model, min_fraction=self.min_grass, bufs=self._gbufs)
+        t1 = time.perf_counter()
+        timings = {"grass": 1e3 * (t1 - t0)}
+        if g.fraction < self.min_grass:
+            timings.update(line_pixels=0.0, lines=0.0, ellipses=0.0)
+            return self._empty(timings, g.filled)
+        # where lines may be: the grass, lines closed in, grown by a cell (steps at the
+        # pitch's outline, such as the boards' lower edge, fail the two-sided ridge test)
+        rt = cv2.bitwise_and(g.filled, g.closed, dst=self._region_tiny)
+        cv2.dilate(rt, _K3, dst=rt)  # a line on the pitch's outline (the far touchline) is in
+        if g.graphics is not None:  # ... but not the edge of a screen graphic
+            cv2.subtract(rt, cv2.dilate(g.graphics, _K3), dst=rt)
+        region = cv2.resize(rt, (w, h), dst=self._region, interpolation=cv2.INTER_NEAREST)
+        gray = cv2.cvtColor(small, cv2.COLOR_BGR2GRAY, dst=self._gray)
+        tg = cv2.cvtColor(tiny, cv2.COLOR_BGR2GRAY, dst=self._tiny_gray)
+        luma = cv2.mean(tg, mask=g.raw)[0]
+        min_contrast = self.ridge_threshold if self.ridge_threshold is not None else max(6.0, 0.12 * luma)
+        # fine scale: thin and sharp lines; coarse scale (half the working size):
+        # wide lines (zoomed in, or smeared by a fast pan). Coarse points count
+        # only where the fine scale found nothing.
+        kf = 11 if self.tau is None else 2 * max(2, int(np.ceil(self.tau / self.factor))) + 1
+        fine, cand = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, bufs=self._rbufs)
+        wc, hc = self._coarse_size
+        gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
+        rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
+        coarse, _ = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
+        pts, nrm, n_fine = fine.pts, fine.nrm, len(fine.pts)
+        if len(coarse.pts):
+            cp = (coarse.pts + 0.5) * np.array([w / wc, h / hc]) - 0.5
+            occ = self._occ_c
+            occ[:] = 0
+            if n_fine:
+                occ[np.clip((pts[:, 1] * 0.5).astype(np.intp), 0, hc - 1), np.clip((pts[:, 0] * 0.5).astype(np.intp), 0, wc - 1)] = 255
+                cv2.dilate(occ, _K5, dst=occ)
+            keep = occ[coarse.pts[:, 1].astype(np.intp), coarse.pts[:, 0].astype(np.intp)] == 0
+            if keep.any():
+                pts = np.concatenate([pts, cp[keep]])
+                nrm = np.concatenate([nrm, coarse.nrm[keep]])
+        # a painted line has grass beside it; a white kit has a shirt above and
+        # legs below (sampled on the tiny grass mask, beyond the line's width)
+        if len(pts):
+            raw = g.raw
+            th_, tw_ = raw.shape
+            d = 0.5 * kf + 4.0
+            fx_, fy_ = tw_ / w, th_ / h
+            sx = pts[:, 0] + d * nrm[:, 0]
+            sy = pts[:, 1] + d * nrm[:, 1]
+            a1 = raw[np.clip((sy * fy_).astype(np.intp), 0, th_ - 1), np.clip((sx * fx_).astype(np.intp), 0, tw_ - 1)]
+            sx = pts[:, 0] - d * nrm[:, 0]
+            sy = pts[:, 1] - d * nrm[:, 1]
+            a2 = raw[np.clip((sy * fy_).astype(np.intp), 0, th_ - 1), np.clip((sx * fx_).astype(np.intp), 0, tw_ - 1)]
+            keep = (a1 > 0) | (a2 > 0)  # one side may be the boards (the far touchline)
+            if not keep.all():
+                pts, nrm = pts[keep], nrm[keep]
+        # connected chains of line points (coarse raster: gaps of a few pixels
+        # bridge); blobs (kits, the ball, a crowd seen through) are dropped
+        occ = self._occ_c
+        occ[:] = 0
+        cxi = np.clip((pts[:, 0] * (wc / w)).astype(np.intp), 0, wc - 1)
+        cyi = np.clip((pts[:, 1] * (hc / h)).astype(np.intp), 0, hc - 1)
+        occ[cyi, cxi] = 255
+        nl, lab, st, _ = cv2.connectedComponentsWithStats(occ, labels=self._lab_c, connectivity=8)
+        labels = lab[cyi, cxi]
+        ext = np.maximum(st[:, cv2.CC_STAT_WIDTH], st[:, cv2.CC_STAT_HEIGHT])
+        keep = ext[labels] >= max(5, 0.008 * wc)
+        if not keep.all():
+            pts, nrm, labels = pts[keep], nrm[keep], labels[keep]
+        lm = self._linemask_small
+        lm[:] = 0
+        if len(pts):
+            lm[np.clip(np.rint(pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
+        line_points = self._to_full(pts)
+        t2 = time.perf_counter()
+        groups, used = group_lines(
+            pts, nrm, (w, h), labels=labels, min_length=self.min_line_length / self.factor, max_gap=max(16.0, 0.2 * w), min_points=12
+        )
+        lines = []
+        for grp in groups:
+            P = line_points[grp.idx]
+            fit = fit_line(P)
+            t = P @ fit.direction
+            i0, i1 = int(np.argmin(t)), int(np.argmax(t))
+            lines.append(
+                DetectedLine(
+                    line=fit.line,
+                    endpoints=np.array([P[i0], P[i1]]),
+                    points=P,
+                    length=float(t[i1] - t[i0]),
+                    normal_sigma=fit.normal_sigma,
+                    angle_sigma=fit.angle_sigma,
+                    rms=fit.rms,
+                )
+            )
+        t3 = time.perf_counter()
+        # short lines may be flat stretches of a big ellipse: their points stay
+        # available to the ellipse search, which has the last word on them
+        pool = ~used
+        group = np.full(len(pts), -1, np.int32)
+        long_len = 0.3 * w
+        for k, grp in enumerate(groups):
+            if grp.t1 - grp.t0 < long_len:
+                pool[grp.idx] = True
+                group[grp.idx] = k
+        free = np.flatnonzero(pool)
+        seed = ~used[free]
+        gf = g.filled
+        th_, tw_ = gf.shape
+        fx, fy = tw_ / self.width, th_ / self.height
+        W, H = self.width, self.height
+
+        def visible(p):
+            """Frame pixels (N, 2) where a marking could be seen: in the frame, on the pitch."""
+            xi = (p[:, 0] * fx).astype(np.intp)
+            yi = (p[:, 1] * fy).astype(np.intp)
+            ok = (p[:, 0] >= 0) & (p[:, 0] <= W - 1) & (p[:, 1] >= 0) & (p[:, 1] <= H - 1)
+            out = np.zeros(len(p), bool)
+            out[ok] = gf[np.clip(yi[ok], 0, th_ - 1), np.clip(xi[ok], 0, tw_ - 1)] > 0
+            return out
+
+        def is_arc(e, P):
+            return _cut_by_line(e, P, lines)
+
+        cands = find_ellipses(
+            pts[free],
+            nrm[free],
+            (w, h),
+            self.A_wf,
+            full_size=(W, H),
+            visible=visible,
+            is_arc=is_arc,
+            mask_buf=self._scratch,
+            seed=seed,
+            group=group[free],
+            max_ellipses=self.max_ellipses,
+        )
+        ellipses = [
+            DetectedEllipse(ellipse=c.ellipse, conic=c.conic, points=line_points[free[c.idx]], rms=c.rms, coverage=c.coverage, score=c.score, kind=c.kind)
+            for c in cands
+        ]
+        ellipses.sort(key=lambda e: (e.kind != "circle", -e.score))
+        if ellipses:
+            taken = np.zeros(len(pts), bool)
+            for c in cands:
+                taken[free[c.idx]] = True
+            keep = []
+            for grp, dl in zip(groups, lines):
+                if grp.t1 - grp.t0 < long_len and np.count_nonzero(taken[grp.idx]) > 0.3 * len(grp.idx):
+                    continue  # a piece of an ellipse
+                keep.append(dl)
+            lines = keep
+        t4 = time.perf_counter()
+        timings.update(line_pixels=1e3 * (t2 - t1), lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
+        return Detections(
+            self.width,
+            self.height,
+            len(pts) >= 30 or g.fraction >= 2 * self.min_grass,
+            g.filled,
+            self._grass_full,
+            lm,
+            self._line_full,
+            line_points,
+            nrm,
+            lines,
+            ellipses,
+            timings,
+            self.factor,
+        )
+
+
+def _cut_by_line(e, P: np.ndarray, lines: list) -> bool:
+    """Whether a straight line cuts the ellipse with all the support ``P`` (N, 2) on
+    its side away from the ellipse's centre: a penalty arc beyond the penalty
+    area's front line (the halfway line, through the centre circle's middle, is
+    no such line)."""
+    if not lines:
+        return False
+    a, b = e.axes
+    ca, sa = np.cos(e.angle), np.sin(e.angle)
+    R = np.array([[ca, -sa], [sa, ca]])
+    M = R @ np.diag([a * a, b * b]) @ R.T
+    c = np.asarray(e.center)
+    for dl in lines[:12]:
+        l = dl.line
+        n = l[:2]
+        dc = float(n @ c + l[2])
+        reach = float(np.sqrt(n @ M @ n))
+        if abs(dc) >= 0.95 * reach or abs(dc) < 0.2 * reach:
+            continue  # misses the ellipse, or passes near its centre
+        side = P @ n + l[2]
+        if np.mean(np.sign(side) != np.sign(dc)) > 0.95:
+            return True
+    return False
+
+
+def detect(image: np.ndarray, **options) -> Detections:
+    """One-shot detection of one BGR uint8 (H, W, 3) frame (a fresh :class:`Detector`:
+    no adaptation across frames). ``options`` as for :class:`Detector`."""
+    if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[-1] != 3 or image.dtype != np.uint8:
+        raise ValueError(
+            f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image).__name__)} {getattr(image, 'shape', '')}"
+        )
+    return Detector(image.shape[1], image.shape[0], **options).process(image)

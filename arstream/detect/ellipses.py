@@ -1,0 +1,451 @@
+"""Circle markings: ellipses found among the curved ridge points.
+
+1. Arcs: the ridge centres that no straight line took are linked into arcs
+   (connected components of their raster, gaps of a pixel bridged).
+2. Hypotheses (RANSAC over the direct fit, sampling arcs rather than single
+   points): the direct least-squares ellipse (Fitzgibbon / Halir-Flusser) of
+   every large arc, pair and triple of arcs. Each arc's scatter matrix of
+   conic monomials is computed once; the scatter of a union is the sum, so
+   all hypotheses are solved in one batched 3x3 eigenproblem.
+3. Scoring: the points within a Sampson distance of each hypothesis *and*
+   whose ridge normal agrees with the conic's gradient there.
+4. Refinement: iteratively reweighted direct fits on the inliers (Sampson
+   gradient weights, which turn the algebraic fit into an approximately
+   geometric one; :func:`geometry.conics.fit_ellipse_direct`).
+5. Validation: size, shape (a ground circle seen from above: minor axis
+   roughly vertical, b/a well under 1), support around the perimeter
+   (coverage in arc-length-weighted angular bins, each needing a real share
+   of its expected points), residual, and the ellipse lying on the pitch.
+
+Every ellipse found removes its inliers; the search repeats for the next one.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from geometry.conics import Ellipse, ellipse_from_conic
+
+__all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
+
+_K3 = np.ones((3, 3), np.uint8)
+
+
+class EllipseCandidate:
+    __slots__ = ("ellipse", "conic", "idx", "rms", "coverage", "score", "kind")
+
+    def __init__(self, ellipse, conic, idx, rms, coverage, score, kind="circle"):
+        self.ellipse, self.conic, self.idx, self.rms = ellipse, conic, idx, rms
+        self.coverage, self.score, self.kind = coverage, score, kind
+
+
+def _monomials(q: np.ndarray) -> np.ndarray:
+    x, y = q[:, 0], q[:, 1]
+    return np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
+
+
+def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Halir-Flusser direct ellipse fit for a stack of scatter matrices (K, 6, 6)
+    of the monomials ``[x^2, xy, y^2, x, y, 1]``.
+
+    Returns (coef (K, 6) [A, B, C, D, E, F], valid (K,) bool)."""
+    S1 = S[:, :3, :3]
+    S2 = S[:, :3, 3:]
+    S3 = S[:, 3:, 3:]
+    K = len(S)
+    try:
+        T = -np.linalg.solve(S3, np.transpose(S2, (0, 2, 1)))
+    except np.linalg.LinAlgError:
+        # a degenerate member (too few distinct points): solve one by one
+        T = np.zeros((K, 3, 3))
+        for k in range(K):
+            try:
+                T[k] = -np.linalg.solve(S3[k], S2[k].T)
+            except np.linalg.LinAlgError:
+                T[k] = np.nan
+    M = S1 + S2 @ T
+    Mp = np.empty_like(M)
+    Mp[:, 0] = 0.5 * M[:, 2]
+    Mp[:, 1] = -M[:, 1]
+    Mp[:, 2] = 0.5 * M[:, 0]
+    fin = np.isfinite(Mp).all(axis=(1, 2))
+    if not fin.all():
+        Mp[~fin] = np.eye(3)
+    w, V = np.linalg.eig(Mp)
+    V = V.real
+    cond = 4 * V[:, 0, :] * V[:, 2, :] - V[:, 1, :] ** 2  # (K, 3) per eigenvector
+    cond = np.where(cond > 0, np.abs(w.real), np.inf)
+    j = np.argmin(cond, axis=1)
+    r = np.arange(K)
+    valid = fin & np.isfinite(cond[r, j])
+    a1 = V[r, :, j]  # (K, 3)
+    coef = np.empty((K, 6))
+    coef[:, :3] = a1
+    coef[:, 3:] = (T @ a1[:, :, None])[:, :, 0]
+    return coef, valid
+
+
+def conic_values(coef: np.ndarray, q: np.ndarray):
+    """Algebraic values f (N, K) and gradients gx, gy (N, K) of conics ``coef`` (K, 6) at points q (N, 2)."""
+    D = _monomials(q)
+    f = D @ coef.T
+    A, B, C, Dd, E = coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3], coef[:, 4]
+    x, y = q[:, :1], q[:, 1:]
+    gx = 2 * A * x + B * y + Dd
+    gy = B * x + 2 * C * y + E
+    return f, gx, gy
+
+
+def _coef_to_conic(coef: np.ndarray, Tn: np.ndarray) -> np.ndarray:
+    A, B, C, D, E, F = coef
+    Cn = np.array([[A, B / 2, D / 2], [B / 2, C, E / 2], [D / 2, E / 2, F]])
+    return Tn.T @ Cn @ Tn
+
+
+def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.3, spacing: float = 1.0, visible=None) -> tuple[float, float]:
+    """Share of the ellipse's perimeter with support.
+
+    The perimeter is cut into ``bins`` equal steps of the parametric angle; a
+    bin counts when it holds at least ``density`` of the points expected along
+    its arc length at one point per ``spacing`` px.
+
+    Returns
+    -------
+    (coverage, visible_coverage) : covered arc length over the whole
+    perimeter, and over the part of it where ``visible`` (a callable, points
+    (N, 2) -> (N,) bool; everything when None) says a marking could be seen.
+    """
+    a, b = e.axes
+    ca, sa = np.cos(e.angle), np.sin(e.angle)
+    d = pts - np.asarray(e.center)
+    u = (d[:, 0] * ca + d[:, 1] * sa) / a
+    v = (-d[:, 0] * sa + d[:, 1] * ca) / b
+    th = np.arctan2(v, u)
+    idx = ((th + np.pi) * (bins / (2 * np.pi))).astype(np.intp) % bins
+    cnt = np.bincount(idx, minlength=bins)
+    mid = -np.pi + (np.arange(bins) + 0.5) * (2 * np.pi / bins)
+    seg = np.hypot(a * np.sin(mid), b * np.cos(mid)) * (2 * np.pi / bins)
+    covered = cnt >= np.maximum(1.0, density * seg / spacing)
+    total = float(seg.sum())
+    cov = float(seg[covered].sum()) / total
+    if visible is None:
+        return cov, cov
+    bx = a * np.cos(mid)
+    by = b * np.sin(mid)
+    P = np.column_stack([e.center[0] + ca * bx - sa * by, e.center[1] + sa * bx + ca * by])
+    vis = visible(P) | covered
+    vis_len = float(seg[vis].sum())
+    return cov, (float(seg[covered].sum()) / vis_len if vis_len > 0 else 0.0)
+
+
+def largest_gap(pts: np.ndarray, e: Ellipse, *, bins: int = 36) -> float:
+    """Largest run of parametric angle (share of the full turn) without support:
+    small when the support surrounds the centre (opposite arcs), large for one arc."""
+    ca, sa = np.cos(e.angle), np.sin(e.angle)
+    d = pts - np.asarray(e.center)
+    th = np.arctan2((-d[:, 0] * sa + d[:, 1] * ca) / e.axes[1], (d[:, 0] * ca + d[:, 1] * sa) / e.axes[0])
+    occ = np.bincount(((th + np.pi) * (bins / (2 * np.pi))).astype(np.intp) % bins, minlength=bins) >= 2
+    if not occ.any():
+        return 1.0
+    # longest circular run of empty bins
+    k = int(np.argmax(occ))
+    r = np.roll(occ, -k)
+    idx = np.flatnonzero(r)
+    gaps = np.diff(np.r_[idx, bins]) - 1
+    return float(gaps.max()) / bins
+
+
+def _params(coef: np.ndarray):
+    """Ellipse parameters of conics (K, 6) [A, B, C, D, E, F]: centre (K, 2), semi-axes
+    a >= b (K,), major-axis angle (K,), and a (K,) bool for real ellipses."""
+    A, B, C, D, E, F = coef.T
+    det = 4 * A * C - B * B
+    ok = det > 1e-300
+    det = np.where(ok, det, 1.0)
+    xc = (B * E - 2 * C * D) / det
+    yc = (B * D - 2 * A * E) / det
+    f0 = F + 0.5 * (D * xc + E * yc)
+    half = 0.5 * (A + C)
+    root = np.sqrt(0.25 * (A - C) ** 2 + 0.25 * B * B)
+    l1, l2 = half - root, half + root  # eigenvalues of [[A, B/2], [B/2, C]]
+    sgn = np.where(half > 0, 1.0, -1.0)  # make the quadratic part positive definite
+    l1, l2, f0 = l1 * sgn, l2 * sgn, f0 * sgn
+    l_small = np.minimum(l1, l2)
+    l_big = np.maximum(l1, l2)
+    ok &= (l_small > 0) & (f0 < 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.sqrt(np.where(ok, -f0 / np.where(ok, l_small, 1.0), 1.0))
+        b = np.sqrt(np.where(ok, -f0 / np.where(ok, l_big, 1.0), 1.0))
+    # major axis: eigenvector of the smaller eigenvalue
+    ang = 0.5 * np.arctan2(B * sgn, (A - C) * sgn) + 0.5 * np.pi
+    ang = (ang + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+    return np.column_stack([xc, yc]), a, b, ang, ok & np.isfinite(a) & np.isfinite(b)
+
+
+def find_ellipses(
+    pts: np.ndarray,
+    nrm: np.ndarray,
+    work_size: tuple[int, int],
+    A_wf: np.ndarray,
+    *,
+    full_size: tuple[int, int],
+    visible,
+    is_arc=None,
+    mask_buf: np.ndarray,
+    labels: np.ndarray | None = None,
+    seed: np.ndarray | None = None,
+    group: np.ndarray | None = None,
+    max_ellipses: int = 3,
+    min_points: int = 30,
+    min_coverage: float = 0.15,
+    min_visible: float = 0.55,
+    max_rms: float = 0.8,
+    tol: float = 1.5,
+) -> list[EllipseCandidate]:
+    """Ellipses among curved ridge points.
+
+    Parameters
+    ----------
+    pts, nrm : (N, 2) working-pixel ridge centres and unit normals (curved points only)
+    work_size : (w, h) of the working image
+    A_wf : (3, 3) affine map from working pixels to frame pixels (homogeneous)
+    full_size : (W, H) frame size
+    visible : callable, frame pixels (N, 2) -> (N,) bool: where a marking could be
+        seen (in the frame, on the pitch)
+    is_arc : callable (Ellipse, support (N, 2)) -> bool, optional: whether the
+        support is an arc cut off by a straight line (a penalty arc)
+    mask_buf : (h, w) uint8 scratch buffer
+    labels : (N,) int, optional, connected chain of each point (0: none); by default
+        the connected components of the points' raster
+    seed : (N,) bool, optional: points that may seed hypotheses (arcs); the
+        others (stretches that also passed for short straight lines) only
+        support them, or seed as arcs of their own: ``group`` (N,) int, the
+        stretch of each point (-1: none)
+    min_points : least inliers (working pixels of support)
+    min_coverage : least share of the perimeter with support
+    min_visible : least share of the visible perimeter with support for a closed
+        circle (an arc with less must be cut off by a straight line: ``is_arc``)
+    max_rms : largest residual (working pixels)
+    tol : inlier distance (working pixels)
+
+    Returns
+    -------
+    list of EllipseCandidate (ellipse and conic in frame pixels; ``idx`` into ``pts``)
+    """
+    n = len(pts)
+    if n < min_points:
+        return []
+    w, h = work_size
+    W, H = full_size
+    sw = float(A_wf[0, 0])  # frame pixels per working pixel
+    # 1. arcs: the caller's chain labels, or connected components of the raster
+    n_cc = None
+    if labels is None:
+        sp = pts if seed is None else pts[seed]
+        mask_buf[:] = 0
+        xi = np.clip(np.rint(sp[:, 0]).astype(np.intp), 0, w - 1)
+        yi = np.clip(np.rint(sp[:, 1]).astype(np.intp), 0, h - 1)
+        mask_buf[yi, xi] = 255
+        cv2.dilate(mask_buf, _K3, dst=mask_buf)
+        _, lab = cv2.connectedComponents(mask_buf, connectivity=8)
+        if seed is None:
+            labels = lab[yi, xi]
+        else:
+            labels = np.zeros(n, np.int32)
+            labels[seed] = lab[yi, xi]
+            n_cc = int(lab.max()) + 1
+            if group is not None:
+                # each short straight stretch is an arc of its own (not merged
+                # with the curve it touches)
+                g = (group >= 0) & ~seed
+                labels[g] = n_cc + group[g]
+    nlab = int(labels.max()) + 1
+    n_cc = nlab if n_cc is None else n_cc
+    # normalised coordinates (Hartley)
+    m = pts.mean(axis=0)
+    s = np.sqrt(2.0) / max(float(np.mean(np.hypot(pts[:, 0] - m[0], pts[:, 1] - m[1]))), 1e-9)
+    q = (pts - m) * s
+    Tn = np.array([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
+    Tn_inv = np.linalg.inv(Tn)
+    Dall = _monomials(q)
+    free = np.ones(n, bool)
+    out: list[EllipseCandidate] = []
+    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw)
+    for _round in range(max_ellipses):
+        arc_n = np.bincount(labels[free], minlength=nlab)
+        arc_n[0] = 0
+        order = np.argsort(-arc_n)
+        order = order[arc_n[order] >= 10]
+        # curved arcs first; stretches that passed for short straight lines only
+        # as partners of a curved arc
+        curved = [int(k) for k in order if k < n_cc][:6]
+        straight = [int(k) for k in order if k >= n_cc][:4]
+        if not curved or arc_n[curved[0]] < (20 if not out else 40):
+            break
+        arcs = curved + straight
+        Sarc = np.empty((len(arcs), 6, 6))
+        for i, k in enumerate(arcs):
+            Dk = Dall[free & (labels == k)]
+            Sarc[i] = Dk.T @ Dk
+        fidx = np.flatnonzero(free)
+        # 2. hypotheses, cheapest first: single arcs and pairs, then triples
+        # (the scatter of a union of arcs is the sum of their scatters)
+        nc, ns = len(curved), len(straight)
+        if not out:
+            top = min(nc, 5)
+            st1 = [(i,) for i in range(nc)] + [(i, j) for i in range(nc) for j in range(i + 1, nc)]
+            st1 += [(i, nc + j) for i in range(min(nc, 3)) for j in range(ns)]
+            # a circle broken into many arcs (players, the halfway line)
+            st2 = [(i, j, k) for i in range(top) for j in range(i + 1, top) for k in range(j + 1, top)]
+            stages = [st1, st2]
+        else:  # later rounds look for arcs (penalty arcs): single pieces
+            stages = [[(i,) for i in range(min(nc, 4))]]
+        na = len(arcs)
+        accepted = None
+        for combos in stages:
+            if not combos:
+                continue
+            sel_m = np.zeros((len(combos), na))
+            for r, cmb in enumerate(combos):
+                sel_m[r, list(cmb)] = 1.0
+            accepted = _try(np.einsum("hk,kij->hij", sel_m, Sarc), fidx, ctx)
+            if accepted is not None:
+                break
+        if accepted is None:
+            break
+        out.append(accepted)
+        # release everything near this ellipse
+        Cq = Tn_inv.T @ (A_wf.T @ accepted.conic @ A_wf) @ Tn_inv
+        f1, gx1, gy1 = conic_values(_conic_to_coef(Cq)[None], q[fidx])
+        near = np.abs(f1[:, 0]) < (2.5 * tol * s) * np.hypot(gx1[:, 0], gy1[:, 0])
+        free[fidx[near]] = False
+        free[accepted.idx] = False
+    return out
+
+
+def _try(S, fidx, ctx):
+    """Fit, screen, score and refine a stack of hypotheses (scatter matrices
+    (K, 6, 6)); the first that validates, or None."""
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw = ctx
+    coef, valid = _batched_direct_fit(S)
+    # plausibility in working pixels before any scoring
+    cen, a, b, ang, ok = _params(_coefs_to_pixels(coef, s, m))
+    valid &= ok & (a > 0.05 * w) & (a < 1.5 * w) & (b > 0.012 * w) & (b < 0.85 * a) & (b > 0.05 * a) & (np.abs(ang) < np.radians(30))
+    if not valid.any():
+        return None
+    coef = coef[valid]
+    # score on the free points: Sampson distance and gradient direction
+    step = max(1, len(fidx) // 1000)
+    sidx = fidx[::step]
+    f, gx, gy = conic_values(coef, q[sidx])
+    gn = np.hypot(gx, gy) + 1e-12
+    nn = nrm[sidx]
+    inl = (np.abs(f) < (tol * s) * gn) & (np.abs(nn[:, :1] * gx + nn[:, 1:] * gy) > 0.95 * gn)
+    # inliers, discounted when they cover little of the hypothesis' perimeter
+    # (a gentle curve fits huge flat ellipses with many inliers)
+    n_in = np.count_nonzero(inl, axis=0) * float(step)
+    av, bv = a[valid], b[valid]
+    perim = np.pi * (3 * (av + bv) - np.sqrt((3 * av + bv) * (av + 3 * bv)))
+    score = n_in * np.minimum(1.0, n_in / (0.5 * perim))
+    for bi in np.argsort(-score)[:3]:
+        if n_in[bi] < min_points:
+            break
+        cand = _refine(coef[bi], q, nrm, fidx, s, tol)
+        if cand is None:
+            continue
+        coef_n, idx, rms_w = cand
+        if rms_w > max_rms or len(idx) < min_points:
+            continue
+        # the answer in frame pixels: the conic mapped through the working -> frame affinity
+        Cw = _coefs_to_pixels(coef_n[None], s, m)[0]
+        Ai = np.linalg.inv(A_wf)
+        try:
+            ell = ellipse_from_conic(Ai.T @ _coef_to_matrix(Cw) @ Ai)
+        except ValueError:
+            continue
+        conic = ell.conic
+        P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
+        rms = rms_w * float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))
+        ok, cov, sc, kind = _validate(
+            ell, P_full, rms, size, visible, is_arc, s_full=sw, min_points=min_points, min_coverage=min_coverage, min_visible=min_visible, max_rms=max_rms
+        )
+        if ok:
+            return EllipseCandidate(ell, conic, idx, rms, cov, sc, kind)
+    return None
+
+
+def _coef_to_matrix(c: np.ndarray) -> np.ndarray:
+    A, B, C, D, E, F = c
+    return np.array([[A, B / 2, D / 2], [B / 2, C, E / 2], [D / 2, E / 2, F]])
+
+
+def _coefs_to_pixels(coef: np.ndarray, s: float, m: np.ndarray) -> np.ndarray:
+    """Conic coefficients (K, 6) in normalised coordinates q = s (p - m) -> in pixels p."""
+    A, B, C, D, E, F = coef.T
+    mx, my = m
+    A2, B2, C2 = A * s * s, B * s * s, C * s * s
+    D2 = D * s - 2 * A2 * mx - B2 * my
+    E2 = E * s - 2 * C2 * my - B2 * mx
+    F2 = A2 * mx * mx + B2 * mx * my + C2 * my * my - D * s * mx - E * s * my + F
+    out = np.column_stack([A2, B2, C2, D2, E2, F2])
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def _conic_to_coef(C: np.ndarray) -> np.ndarray:
+    return np.array([C[0, 0], 2 * C[0, 1], C[1, 1], 2 * C[0, 2], 2 * C[1, 2], C[2, 2]])
+
+
+def _refine(coef0, q, nrm, fidx, s, tol):
+    """Inliers of a hypothesis and iteratively reweighted direct fits (Sampson
+    gradient weights, which make the algebraic fit nearly geometric) with a
+    shrinking inlier band, in normalised coordinates: (coef, inlier indices,
+    rms Sampson distance in working px)."""
+    coef = coef0
+    qq = q[fidx]
+    nn = nrm[fidx]
+    D = _monomials(qq)
+    sel = None
+    for band in (1.5 * tol, tol, min(tol, 1.0), None):
+        f, gx, gy = conic_values(coef[None], qq)
+        f, gx, gy = f[:, 0], gx[:, 0], gy[:, 0]
+        gn = np.hypot(gx, gy) + 1e-12
+        d = np.abs(f) / gn
+        if band is None:
+            break
+        sel = (d < band * s) & (np.abs(nn[:, 0] * gx + nn[:, 1] * gy) > 0.95 * gn)
+        if np.count_nonzero(sel) < 10:
+            return None
+        Ds = D[sel]
+        wts = 1.0 / (gn[sel] ** 2)
+        c2, ok = _batched_direct_fit((Ds.T @ (Ds * (wts / wts.mean())[:, None]))[None])
+        if not ok[0]:
+            return None
+        coef = c2[0]
+    rms = float(np.sqrt(np.mean(d[sel] ** 2))) / s
+    return coef, fidx[sel], rms
+
+
+def _validate(e: Ellipse, P_full, rms, size, visible, is_arc, *, s_full, min_points, min_coverage, min_visible, max_rms):
+    """Final checks in frame pixels: (ok, coverage, score, kind)."""
+    W, H = size
+    a, b = e.axes
+    if len(P_full) < min_points:
+        return False, 0.0, 0.0, ""
+    if not (0.06 * W < a < 1.5 * W and b > 0.016 * W and 0.05 < b / a < 0.85 and abs(e.angle) < np.radians(30)):
+        return False, 0.0, 0.0, ""
+    if rms > max_rms * s_full:
+        return False, 0.0, 0.0, ""
+    cov, vcov = coverage(P_full, e, spacing=s_full, visible=visible)
+    if cov < min_coverage:
+        return False, cov, 0.0, ""
+    if is_arc is not None and is_arc(e, P_full):
+        kind = "arc"
+    elif vcov >= min_visible or (vcov >= 0.6 * min_visible and rms <= 0.25 * max_rms * s_full and largest_gap(P_full, e) <= 0.4):
+        # a closed circle: most of its visible perimeter supported, or at least
+        # opposite arcs of it (a fast pan smears the sides away)
+        kind = "circle"
+    else:
+        return False, cov, 0.0, ""
+    score = float(min(1.0, vcov / 0.8) * np.exp(-((rms / s_full) / 0.6) ** 2))
+    return True, cov, score, kind
