@@ -93,7 +93,7 @@ __all__ = [
 DEFAULT_LAG = 10
 
 #: Default width (pixels) of the frames detection and tracking work on (see :class:`Analysis`).
-DEFAULT_ANALYSIS_WIDTH = 960
+DEFAULT_ANALYSIS_WIDTH = 640
 
 
 # --------------------------------------------------------------------------- items and stages
@@ -255,10 +255,18 @@ class DetectStage(Stage):
             detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
         self.detector = detector
         self.available = detector is not None
+        try:
+            import inspect
+
+            self._lazy = {"lazy": True} if detector is not None and "lazy" in inspect.signature(detector.process).parameters else {}
+        except (TypeError, ValueError):
+            self._lazy = {}
 
     def process(self, item: Item) -> list[Item]:
         if self.detector is not None:
-            det = self.detector.process(self.analysis.image(item))
+            # lines and ellipses on demand: a tracker following a locked camera
+            # needs only the line points (re-initialisation asks for the rest)
+            det = self.detector.process(self.analysis.image(item), **self._lazy)
             item.detections = det
             item.matte = getattr(det, "grass_mask", None)
         return [item]

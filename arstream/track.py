@@ -198,6 +198,7 @@ class Tracker:
         self._prev_thumb: np.ndarray | None = None
         self._kf: KalmanFilter | None = None
         self._coast = 0
+        self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
@@ -252,6 +253,7 @@ class Tracker:
         """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
         self._kf = None
         self._coast = 0
+        self._conf_ref = 1.0
         if not keep_centre:
             self.centre = None
             self._centres.clear()
@@ -333,7 +335,8 @@ class Tracker:
                     continue
                 if meas is None or r.confidence > meas.confidence:
                     meas = r
-                if meas.confidence >= 0.85:
+                # as good as this clip's recent frames: no need to search wider
+                if meas.confidence >= min(0.85, self._conf_ref - 0.05):
                     break
             if meas is not None and meas.confidence < self.cfg.accept:
                 meas = None
@@ -393,6 +396,7 @@ class Tracker:
                 return self._estimate(index, pts, "tracked", pred_cam, 0.3, centre)
             kf.update(z, R=Rz)
         self._coast = 0
+        self._conf_ref = meas.confidence if self._conf_ref >= 1.0 else 0.9 * self._conf_ref + 0.1 * meas.confidence
         if self.centre is None:
             # no tripod centre yet: the filter's state (angles about each frame's own,
             # poorly determined centre) is not a camera to output; the measurement is

@@ -44,7 +44,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("--cameras-out", metavar="FILE", help="write the camera of every frame as JSON lines (cameras.jsonl)")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
-    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 960)")
+    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640)")
     p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
     p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
     p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")

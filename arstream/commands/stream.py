@@ -69,7 +69,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("-o", "--output", metavar="OUT.mp4", help="also record the augmented video")
     p.add_argument("--cameras-out", metavar="FILE", help="also write the cameras as JSON lines")
-    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 960)")
+    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640)")
     p.add_argument("--jpeg-quality", type=int, default=75, metavar="Q", help="quality of the JPEG frames sent to rerun (default: 75)")
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")

@@ -105,13 +105,46 @@ class Detector:
         self._occ_c = np.empty((hc, wc), np.uint8)
         self._lab_c = np.empty((hc, wc), np.int32)
         self._rbufs_c: dict = {}
+        self._squash_w = max(w // 4, 16)
+        self._gray_s = np.empty((h, self._squash_w), np.uint8)
+        self._region_s = np.empty((h, self._squash_w), np.uint8)
+        self._rbufs_s: dict = {}
         self._grass_full = np.empty((height, width), np.uint8)
         self._line_full = np.empty((height, width), np.uint8)
         self._gbufs: dict = {}
         self._rbufs: dict = {}
         self.frames = 0
+        self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
 
     # -----------------------------------------------------------------------------
+    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, occupied=None):
+        """Add the ridge points ``extra`` found on the working image resized by
+        1 / ``scale`` (sx, sy), where the points so far (working pixels, (N, 2),
+        normals (N, 2)) found nothing nearby (within 2 cells of the coarse grid).
+        ``min_abs_nx``: keep only those whose normal (in working pixels) is at
+        least this horizontal; ``occupied``: the points that block (default ``pts``)."""
+        if not len(extra.pts):
+            return pts, nrm
+        sx, sy = scale
+        ep = (extra.pts + 0.5) * np.array([sx, sy]) - 0.5
+        en = extra.nrm / np.array([sx, sy])  # gradients scale inversely with the axes
+        en /= np.linalg.norm(en, axis=1, keepdims=True)
+        wc, hc = self._coarse_size
+        w, h = self.work_size
+        cx, cy = wc / w, hc / h
+        occ = self._occ_c
+        occ[:] = 0
+        occupied = pts if occupied is None else occupied
+        if len(occupied):
+            occ[np.clip((occupied[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((occupied[:, 0] * cx).astype(np.intp), 0, wc - 1)] = 255
+            cv2.dilate(occ, _K5, dst=occ)
+        keep = occ[np.clip((ep[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((ep[:, 0] * cx).astype(np.intp), 0, wc - 1)] == 0
+        if min_abs_nx > 0:
+            keep &= np.abs(en[:, 0]) >= min_abs_nx
+        if not keep.any():
+            return pts, nrm
+        return np.concatenate([pts, ep[keep]]), np.concatenate([nrm, en[keep]])
+
     def _to_full(self, p: np.ndarray) -> np.ndarray:
         A = self.A_wf
         out = np.empty_like(p)
@@ -128,18 +161,25 @@ class Detector:
             raise ValueError(f"image is {image.shape[1]}x{image.shape[0]}, detector expects {self.width}x{self.height}")
 
     def _empty(self, timings, grass_small=None) -> Detections:
+        self._prev_conics = []
         self._linemask_small[:] = 0
         z = np.zeros((0, 2))
         return Detections(
             self.width, self.height, False, grass_small, self._grass_full, self._linemask_small, self._line_full, z, z.copy(), [], [], timings, self.factor
         )
 
-    def process(self, image: np.ndarray) -> Detections:
+    def process(self, image: np.ndarray, *, lazy: bool = False) -> Detections:
         """Detect grass, line pixels, straight lines and circle ellipses in one frame.
 
         Parameters
         ----------
         image : (H, W, 3) uint8, BGR, the size given to the constructor
+        lazy : bool
+            Leave the straight lines and the ellipses to the first access of
+            ``lines`` or ``ellipses`` (a tracker that follows a locked camera
+            needs only the line points; grass and line points are always
+            computed). The deferred work uses private copies of the detector's
+            buffers, so it may run after the next call, on another thread.
 
         Returns
         -------
@@ -177,18 +217,15 @@ class Detector:
         gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
         rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
         coarse, _ = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
-        pts, nrm, n_fine = fine.pts, fine.nrm, len(fine.pts)
-        if len(coarse.pts):
-            cp = (coarse.pts + 0.5) * np.array([w / wc, h / hc]) - 0.5
-            occ = self._occ_c
-            occ[:] = 0
-            if n_fine:
-                occ[np.clip((pts[:, 1] * 0.5).astype(np.intp), 0, hc - 1), np.clip((pts[:, 0] * 0.5).astype(np.intp), 0, wc - 1)] = 255
-                cv2.dilate(occ, _K5, dst=occ)
-            keep = occ[coarse.pts[:, 1].astype(np.intp), coarse.pts[:, 0].astype(np.intp)] == 0
-            if keep.any():
-                pts = np.concatenate([pts, cp[keep]])
-                nrm = np.concatenate([nrm, coarse.nrm[keep]])
+        pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
+        # a fast horizontal pan smears the near-vertical lines (the halfway line)
+        # sideways into wide, faint bands: look for them on the frame squashed
+        # 4x horizontally, where they are thin again (near-vertical ones only)
+        ws = self._squash_w
+        gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
+        rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
+        squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, bufs=self._rbufs_s)
+        pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, occupied=fine.pts)
         # a painted line has grass beside it; a white kit has a shirt above and
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):
@@ -224,6 +261,41 @@ class Detector:
             lm[np.clip(np.rint(pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
         line_points = self._to_full(pts)
         t2 = time.perf_counter()
+        timings["line_pixels"] = 1e3 * (t2 - t1)
+        if lazy:
+            # private copies of what the structure needs from reused buffers: it may
+            # run after the next frame's process() (on another thread)
+            filled, scratch = g.filled.copy(), np.empty_like(self._scratch)
+        else:
+            filled, scratch = g.filled, self._scratch
+
+        def structure():
+            return self._structure(pts, nrm, labels, line_points, filled, scratch, timings)
+
+        det = Detections(
+            self.width,
+            self.height,
+            len(pts) >= 30 or g.fraction >= 2 * self.min_grass,
+            g.filled,
+            self._grass_full,
+            lm,
+            self._line_full,
+            line_points,
+            nrm,
+            timings=timings,
+            scale=self.factor,
+            structure=structure,
+        )
+        if not lazy:
+            det.resolve()
+        return det
+
+    def _structure(self, pts, nrm, labels, line_points, gf, scratch, timings) -> tuple[list, list]:
+        """Straight lines and ellipses from the line points (working pixels ``pts``,
+        normals ``nrm``, chain ``labels``; frame pixels ``line_points``), given the
+        tiny pitch mask ``gf`` and a working-size uint8 scratch buffer."""
+        w, h = self.work_size
+        t2 = time.perf_counter()
         groups, used = group_lines(
             pts, nrm, (w, h), labels=labels, min_length=self.min_line_length / self.factor, max_gap=max(16.0, 0.2 * w), min_points=12
         )
@@ -256,7 +328,6 @@ class Detector:
                 group[grp.idx] = k
         free = np.flatnonzero(pool)
         seed = ~used[free]
-        gf = g.filled
         th_, tw_ = gf.shape
         fx, fy = tw_ / self.width, th_ / self.height
         W, H = self.width, self.height
@@ -281,11 +352,13 @@ class Detector:
             full_size=(W, H),
             visible=visible,
             is_arc=is_arc,
-            mask_buf=self._scratch,
+            mask_buf=scratch,
             seed=seed,
             group=group[free],
             max_ellipses=self.max_ellipses,
+            prior=self._prev_conics,
         )
+        self._prev_conics = [c.conic for c in cands]
         ellipses = [
             DetectedEllipse(ellipse=c.ellipse, conic=c.conic, points=line_points[free[c.idx]], rms=c.rms, coverage=c.coverage, score=c.score, kind=c.kind)
             for c in cands
@@ -302,23 +375,8 @@ class Detector:
                 keep.append(dl)
             lines = keep
         t4 = time.perf_counter()
-        timings.update(line_pixels=1e3 * (t2 - t1), lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
-        return Detections(
-            self.width,
-            self.height,
-            len(pts) >= 30 or g.fraction >= 2 * self.min_grass,
-            g.filled,
-            self._grass_full,
-            lm,
-            self._line_full,
-            line_points,
-            nrm,
-            lines,
-            ellipses,
-            timings,
-            self.factor,
-        )
-
+        timings.update(lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
+        return lines, ellipses
 
 def _cut_by_line(e, P: np.ndarray, lines: list) -> bool:
     """Whether a straight line cuts the ellipse with all the support ``P`` (N, 2) on

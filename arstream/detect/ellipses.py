@@ -50,10 +50,12 @@ def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     of the monomials ``[x^2, xy, y^2, x, y, 1]``.
 
     Returns (coef (K, 6) [A, B, C, D, E, F], valid (K,) bool)."""
+    K = len(S)
+    if K == 1:
+        return _direct_fit_one(S[0])
     S1 = S[:, :3, :3]
     S2 = S[:, :3, 3:]
     S3 = S[:, 3:, 3:]
-    K = len(S)
     try:
         T = -np.linalg.solve(S3, np.transpose(S2, (0, 2, 1)))
     except np.linalg.LinAlgError:
@@ -84,6 +86,27 @@ def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     coef[:, :3] = a1
     coef[:, 3:] = (T @ a1[:, :, None])[:, :, 0]
     return coef, valid
+
+
+def _direct_fit_one(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_batched_direct_fit` for one scatter matrix (6, 6) (no batching overhead)."""
+    try:
+        T = -np.linalg.solve(S[3:, 3:], S[3:, :3])
+    except np.linalg.LinAlgError:
+        return np.full((1, 6), np.nan), np.zeros(1, bool)
+    M = S[:3, :3] + S[:3, 3:] @ T
+    Mp = np.array([0.5 * M[2], -M[1], 0.5 * M[0]])
+    if not np.isfinite(Mp).all():
+        return np.full((1, 6), np.nan), np.zeros(1, bool)
+    w, V = np.linalg.eig(Mp)
+    V = V.real
+    cond = 4 * V[0] * V[2] - V[1] ** 2
+    ok = cond > 0
+    if not ok.any():
+        return np.full((1, 6), np.nan), np.zeros(1, bool)
+    j = int(np.argmin(np.where(ok, np.abs(w.real), np.inf)))
+    a1 = V[:, j]
+    return np.concatenate([a1, T @ a1])[None], np.ones(1, bool)
 
 
 def conic_values(coef: np.ndarray, q: np.ndarray):
@@ -197,6 +220,8 @@ def find_ellipses(
     seed: np.ndarray | None = None,
     group: np.ndarray | None = None,
     max_ellipses: int = 3,
+    prior=None,
+    prior_band: float = 4.0,
     min_points: int = 30,
     min_coverage: float = 0.15,
     min_visible: float = 0.55,
@@ -222,6 +247,10 @@ def find_ellipses(
         others (stretches that also passed for short straight lines) only
         support them, or seed as arcs of their own: ``group`` (N,) int, the
         stretch of each point (-1: none)
+    prior : sequence of (3, 3) conics (frame pixels), optional: the ellipses of
+        the previous frame, tried first (inliers within ``prior_band`` working
+        pixels, then the usual refinement and validation); the RANSAC search
+        runs only when none of them holds
     min_points : least inliers (working pixels of support)
     min_coverage : least share of the perimeter with support
     min_visible : least share of the visible perimeter with support for a closed
@@ -272,56 +301,74 @@ def find_ellipses(
     free = np.ones(n, bool)
     out: list[EllipseCandidate] = []
     ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw)
+    priors = [np.asarray(C, float) for C in (prior or ())]
     for _round in range(max_ellipses):
-        arc_n = np.bincount(labels[free], minlength=nlab)
-        arc_n[0] = 0
-        order = np.argsort(-arc_n)
-        order = order[arc_n[order] >= 10]
-        # curved arcs first; stretches that passed for short straight lines only
-        # as partners of a curved arc
-        curved = [int(k) for k in order if k < n_cc][:6]
-        straight = [int(k) for k in order if k >= n_cc][:4]
-        if not curved or arc_n[curved[0]] < (20 if not out else 40):
-            break
-        arcs = curved + straight
-        Sarc = np.empty((len(arcs), 6, 6))
-        for i, k in enumerate(arcs):
-            Dk = Dall[free & (labels == k)]
-            Sarc[i] = Dk.T @ Dk
-        fidx = np.flatnonzero(free)
-        # 2. hypotheses, cheapest first: single arcs and pairs, then triples
-        # (the scatter of a union of arcs is the sum of their scatters)
-        nc, ns = len(curved), len(straight)
-        if not out:
-            top = min(nc, 5)
-            st1 = [(i,) for i in range(nc)] + [(i, j) for i in range(nc) for j in range(i + 1, nc)]
-            st1 += [(i, nc + j) for i in range(min(nc, 3)) for j in range(ns)]
-            # a circle broken into many arcs (players, the halfway line)
-            st2 = [(i, j, k) for i in range(top) for j in range(i + 1, top) for k in range(j + 1, top)]
-            stages = [st1, st2]
-        else:  # later rounds look for arcs (penalty arcs): single pieces
-            stages = [[(i,) for i in range(min(nc, 4))]]
-        na = len(arcs)
         accepted = None
-        for combos in stages:
-            if not combos:
-                continue
-            sel_m = np.zeros((len(combos), na))
-            for r, cmb in enumerate(combos):
-                sel_m[r, list(cmb)] = 1.0
-            accepted = _try(np.einsum("hk,kij->hij", sel_m, Sarc), fidx, ctx)
-            if accepted is not None:
-                break
+        # the ellipses of the previous frame first: a wide band around each
+        # (the camera moved), refined and validated like any hypothesis
+        while priors and accepted is None:
+            Cq = Tn_inv.T @ (A_wf.T @ priors.pop(0) @ A_wf) @ Tn_inv
+            c0 = _conic_to_coef(Cq)
+            accepted = _accept(c0 / np.linalg.norm(c0), np.flatnonzero(free), ctx, first_band=prior_band)
+        if accepted is None:
+            accepted = _search(free, labels, nlab, n_cc, Dall, ctx, first=not out)
         if accepted is None:
             break
         out.append(accepted)
         # release everything near this ellipse
+        fidx = np.flatnonzero(free)
         Cq = Tn_inv.T @ (A_wf.T @ accepted.conic @ A_wf) @ Tn_inv
         f1, gx1, gy1 = conic_values(_conic_to_coef(Cq)[None], q[fidx])
         near = np.abs(f1[:, 0]) < (2.5 * tol * s) * np.hypot(gx1[:, 0], gy1[:, 0])
         free[fidx[near]] = False
         free[accepted.idx] = False
     return out
+
+
+def _search(free, labels, nlab, n_cc, Dall, ctx, *, first):
+    """One round of the RANSAC search over arcs: the first hypothesis that
+    validates, or None. ``first``: the first round (pairs and triples of arcs
+    for a circle broken into pieces; later rounds try single arcs)."""
+    arc_n = np.bincount(labels[free], minlength=nlab)
+    arc_n[0] = 0
+    order = np.argsort(-arc_n)
+    order = order[arc_n[order] >= 10]
+    # curved arcs first; stretches that passed for short straight lines only
+    # as partners of a curved arc
+    curved = [int(k) for k in order if k < n_cc][:6]
+    straight = [int(k) for k in order if k >= n_cc][:4]
+    if not curved or arc_n[curved[0]] < (20 if first else 40):
+        return None
+    arcs = curved + straight
+    Sarc = np.empty((len(arcs), 6, 6))
+    for i, k in enumerate(arcs):
+        Dk = Dall[free & (labels == k)]
+        Sarc[i] = Dk.T @ Dk
+    fidx = np.flatnonzero(free)
+    # 2. hypotheses, cheapest first: single arcs and pairs, then triples
+    # (the scatter of a union of arcs is the sum of their scatters)
+    nc, ns = len(curved), len(straight)
+    if first:
+        top = min(nc, 5)
+        st1 = [(i,) for i in range(nc)] + [(i, j) for i in range(nc) for j in range(i + 1, nc)]
+        st1 += [(i, nc + j) for i in range(min(nc, 3)) for j in range(ns)]
+        # a circle broken into many arcs (players, the halfway line)
+        st2 = [(i, j, k) for i in range(top) for j in range(i + 1, top) for k in range(j + 1, top)]
+        stages = [st1, st2]
+    else:  # later rounds look for arcs (penalty arcs): single pieces
+        stages = [[(i,) for i in range(min(nc, 4))]]
+    na = len(arcs)
+    accepted = None
+    for combos in stages:
+        if not combos:
+            continue
+        sel_m = np.zeros((len(combos), na))
+        for r, cmb in enumerate(combos):
+            sel_m[r, list(cmb)] = 1.0
+        accepted = _try(np.einsum("hk,kij->hij", sel_m, Sarc), fidx, ctx)
+        if accepted is not None:
+            break
+    return accepted
 
 
 def _try(S, fidx, ctx):
@@ -351,28 +398,35 @@ def _try(S, fidx, ctx):
     for bi in np.argsort(-score)[:3]:
         if n_in[bi] < min_points:
             break
-        cand = _refine(coef[bi], q, nrm, fidx, s, tol)
-        if cand is None:
-            continue
-        coef_n, idx, rms_w = cand
-        if rms_w > max_rms or len(idx) < min_points:
-            continue
-        # the answer in frame pixels: the conic mapped through the working -> frame affinity
-        Cw = _coefs_to_pixels(coef_n[None], s, m)[0]
-        Ai = np.linalg.inv(A_wf)
-        try:
-            ell = ellipse_from_conic(Ai.T @ _coef_to_matrix(Cw) @ Ai)
-        except ValueError:
-            continue
-        conic = ell.conic
-        P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
-        rms = rms_w * float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))
-        ok, cov, sc, kind = _validate(
-            ell, P_full, rms, size, visible, is_arc, s_full=sw, min_points=min_points, min_coverage=min_coverage, min_visible=min_visible, max_rms=max_rms
-        )
-        if ok:
-            return EllipseCandidate(ell, conic, idx, rms, cov, sc, kind)
+        accepted = _accept(coef[bi], fidx, ctx)
+        if accepted is not None:
+            return accepted
     return None
+
+
+def _accept(coef0, fidx, ctx, *, first_band=None):
+    """Refine a hypothesis (normalised coefficients (6,)) on the free points
+    ``fidx`` and validate it in frame pixels: an EllipseCandidate, or None."""
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw = ctx
+    cand = _refine(coef0, q, nrm, fidx, s, tol, first_band)
+    if cand is None:
+        return None
+    coef_n, idx, rms_w = cand
+    if rms_w > max_rms or len(idx) < min_points:
+        return None
+    # the answer in frame pixels: the conic mapped through the working -> frame affinity
+    Cw = _coefs_to_pixels(coef_n[None], s, m)[0]
+    Ai = np.linalg.inv(A_wf)
+    try:
+        ell = ellipse_from_conic(Ai.T @ _coef_to_matrix(Cw) @ Ai)
+    except ValueError:
+        return None
+    P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
+    rms = rms_w * float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))
+    ok, cov, sc, kind = _validate(
+        ell, P_full, rms, size, visible, is_arc, s_full=sw, min_points=min_points, min_coverage=min_coverage, min_visible=min_visible, max_rms=max_rms
+    )
+    return EllipseCandidate(ell, ell.conic, idx, rms, cov, sc, kind) if ok else None
 
 
 def _coef_to_matrix(c: np.ndarray) -> np.ndarray:
@@ -396,17 +450,28 @@ def _conic_to_coef(C: np.ndarray) -> np.ndarray:
     return np.array([C[0, 0], 2 * C[0, 1], C[1, 1], 2 * C[0, 2], 2 * C[1, 2], C[2, 2]])
 
 
-def _refine(coef0, q, nrm, fidx, s, tol):
+def _refine(coef0, q, nrm, fidx, s, tol, first_band=None):
     """Inliers of a hypothesis and iteratively reweighted direct fits (Sampson
     gradient weights, which make the algebraic fit nearly geometric) with a
     shrinking inlier band, in normalised coordinates: (coef, inlier indices,
-    rms Sampson distance in working px)."""
+    rms Sampson distance in working px). ``first_band`` (working px, default
+    1.5 ``tol``): the first inlier band (wider for a prediction from the
+    previous frame)."""
+    if first_band is None:
+        first_band = 1.5 * tol
     coef = coef0
+    # the later bands lie inside the first: work on the points near the
+    # hypothesis only (the fits move the conic by a fraction of a pixel)
+    f, gx, gy = conic_values(coef[None], q[fidx])
+    near = np.abs(f[:, 0]) < (first_band + 1.0) * s * (np.hypot(gx[:, 0], gy[:, 0]) + 1e-12)
+    fidx = fidx[near]
+    if len(fidx) < 10:
+        return None
     qq = q[fidx]
     nn = nrm[fidx]
     D = _monomials(qq)
     sel = None
-    for band in (1.5 * tol, tol, min(tol, 1.0), None):
+    for band in (first_band, tol, min(tol, 1.0), None):
         f, gx, gy = conic_values(coef[None], qq)
         f, gx, gy = f[:, 0], gx[:, 0], gy[:, 0]
         gn = np.hypot(gx, gy) + 1e-12

@@ -121,7 +121,10 @@ class Detections:
     lines : list of DetectedLine, longest first
     ellipses : list of DetectedEllipse, best first (closed circles before arcs): the
         centre circle, when in view, is ``ellipses[0]``
-    timings : dict, ms per sub-stage
+
+    ``lines`` and ``ellipses`` may be deferred (``Detector.process(...,
+    lazy=True)``): they are computed on first access (:meth:`resolve`).
+    timings : dict, ms per sub-stage (``lines`` and ``ellipses`` once computed)
     scale : float, frame pixels per working pixel (the ridge search resolution)
 
     ``grass_mask`` and ``line_mask`` are upsampled on first access, into the
@@ -129,7 +132,9 @@ class Detections:
     the next :meth:`Detector.process` call (copy them to keep them).
     """
 
-    def __init__(self, width, height, pitch_visible, grass_small, grass_buf, line_small, line_buf, line_points, line_normals, lines, ellipses, timings, scale):
+    def __init__(
+        self, width, height, pitch_visible, grass_small, grass_buf, line_small, line_buf, line_points, line_normals, lines=None, ellipses=None, timings=None, scale=1.0, *, structure=None
+    ):
         self.width = int(width)
         self.height = int(height)
         self.pitch_visible = bool(pitch_visible)
@@ -137,10 +142,33 @@ class Detections:
         self._line = _LazyMask(line_small, line_buf)
         self.line_points = line_points
         self.line_normals = line_normals
-        self.lines = lines
-        self.ellipses = ellipses
-        self.timings = timings
+        if structure is None and (lines is None or ellipses is None):
+            raise ValueError("Detections needs lines and ellipses, or a structure callable that makes them")
+        self._lines, self._ellipses = lines, ellipses
+        self._structure = structure if lines is None else None
+        self.timings = {} if timings is None else timings
         self.scale = float(scale)
+
+    def resolve(self) -> "Detections":
+        """Compute the deferred straight lines and ellipses now (a lazy detection,
+        :meth:`Detector.process` with ``lazy=True``); a no-op otherwise."""
+        if self._structure is not None:
+            self._lines, self._ellipses = self._structure()
+            self._structure = None
+        return self
+
+    @property
+    def lines(self) -> list:
+        return self.resolve()._lines
+
+    @property
+    def ellipses(self) -> list:
+        return self.resolve()._ellipses
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the lines and ellipses have been computed."""
+        return self._structure is None
 
     @property
     def grass_mask(self) -> np.ndarray:
@@ -158,7 +186,8 @@ class Detections:
     def __repr__(self) -> str:
         return (
             f"Detections({self.width}x{self.height}, pitch_visible={self.pitch_visible}, "
-            f"{len(self.line_points)} line points, {len(self.lines)} lines, {len(self.ellipses)} ellipses)"
+            f"{len(self.line_points)} line points, "
+            + (f"{len(self._lines)} lines, {len(self._ellipses)} ellipses)" if self.resolved else "lines and ellipses deferred)")
         )
 
     def to_json(self) -> dict:
