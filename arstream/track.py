@@ -39,7 +39,7 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
-from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, refine_camera, solve_from_circle
+from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
@@ -52,6 +52,9 @@ class TrackerConfig:
     """Tuning of the tracker (defaults suit 25-50 fps broadcast video)."""
 
     accept: float = 0.7  # least support share to accept a refinement as a measurement
+    accept_low: float = 0.55  # ... or this much, when the detected line pixels lie on the markings:
+    min_explained: float = 0.9  # share of them within 2.5 px of the projected markings
+    trusted: float = 0.9  # support share of a measurement that no motion gate rejects (fast pans)
     init_accept: float = 0.6  # least support share to accept an initialisation
     max_coast: int = 12  # frames carried by the filter without a measurement
     gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
@@ -199,10 +202,11 @@ class Tracker:
         self._kf: KalmanFilter | None = None
         self._coast = 0
         self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
+        self._gated_prev = False  # the previous frame's measurement was gated
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray) -> KalmanFilter:
@@ -254,6 +258,7 @@ class Tracker:
         self._kf = None
         self._coast = 0
         self._conf_ref = 1.0
+        self._gated_prev = False
         if not keep_centre:
             self.centre = None
             self._centres.clear()
@@ -339,7 +344,10 @@ class Tracker:
                 if meas.confidence >= min(0.85, self._conf_ref - 0.05):
                     break
             if meas is not None and meas.confidence < self.cfg.accept:
-                meas = None
+                # blur or occlusion hides markings (low recall): still a measurement
+                # when what was detected lies on the projected markings (precision)
+                if meas.confidence < self.cfg.accept_low or explained_share(meas.camera, lidx, self.size, self.model) < self.cfg.min_explained:
+                    meas = None
         source = "track"
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
@@ -386,15 +394,25 @@ class Tracker:
             y[0] = _wrap(y[0])
             S = kf.H @ kf.P @ kf.H.T + Rz
             d2 = float(y @ np.linalg.solve(S, y))
-            if d2 > self.cfg.gate and source == "track":
+            gated = d2 > self.cfg.gate and source == "track" and meas.confidence < self.cfg.trusted
+            if gated and self._gated_prev and meas.confidence >= self.cfg.accept:
+                # a second well-supported measurement in a row against the motion model:
+                # the model is wrong (a sudden pan), not the measurements; restart from it
+                self.stats["reanchored"] += 1
+                self._kf = kf = self._new_filter(z, Rz)
+                self._kf_id = index
+            elif gated:
                 # an outlier against the motion model: carry the prediction instead
                 self.stats["gated"] += 1
+                self._gated_prev = True
                 self._coast += 1
                 if self._coast > self.cfg.max_coast:
                     self.reset()
                     return CameraEstimate.lost(index, pts, reason="gated")
                 return self._estimate(index, pts, "tracked", pred_cam, 0.3, centre)
-            kf.update(z, R=Rz)
+            else:
+                kf.update(z, R=Rz)
+        self._gated_prev = False
         self._coast = 0
         self._conf_ref = meas.confidence if self._conf_ref >= 1.0 else 0.9 * self._conf_ref + 0.1 * meas.confidence
         if self.centre is None:

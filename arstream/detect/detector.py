@@ -12,13 +12,14 @@ from geometry.lines import fit_line
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
 from .results import DetectedEllipse, DetectedLine, Detections
-from .ridges import ridge_points
+from .ridges import RidgePoints, ridge_points
 from .segments import group_lines
 
 __all__ = ["Detector", "detect"]
 
 _K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
 _K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
+_KH5 = np.ones((1, 5), np.uint8)
 
 
 class Detector:
@@ -109,6 +110,7 @@ class Detector:
         self._gray_s = np.empty((h, self._squash_w), np.uint8)
         self._region_s = np.empty((h, self._squash_w), np.uint8)
         self._rbufs_s: dict = {}
+        self._block = np.empty((h, w), np.uint8)
         self._grass_full = np.empty((height, width), np.uint8)
         self._line_full = np.empty((height, width), np.uint8)
         self._gbufs: dict = {}
@@ -117,33 +119,53 @@ class Detector:
         self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
 
     # -----------------------------------------------------------------------------
-    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, occupied=None):
+    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None):
         """Add the ridge points ``extra`` found on the working image resized by
         1 / ``scale`` (sx, sy), where the points so far (working pixels, (N, 2),
         normals (N, 2)) found nothing nearby (within 2 cells of the coarse grid).
         ``min_abs_nx``: keep only those whose normal (in working pixels) is at
-        least this horizontal; ``occupied``: the points that block (default ``pts``)."""
+        least this horizontal; ``block``: a working-size uint8 mask of where
+        points are not added, instead of the neighbourhood of ``pts``."""
         if not len(extra.pts):
             return pts, nrm
         sx, sy = scale
         ep = (extra.pts + 0.5) * np.array([sx, sy]) - 0.5
         en = extra.nrm / np.array([sx, sy])  # gradients scale inversely with the axes
         en /= np.linalg.norm(en, axis=1, keepdims=True)
-        wc, hc = self._coarse_size
         w, h = self.work_size
-        cx, cy = wc / w, hc / h
-        occ = self._occ_c
-        occ[:] = 0
-        occupied = pts if occupied is None else occupied
-        if len(occupied):
-            occ[np.clip((occupied[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((occupied[:, 0] * cx).astype(np.intp), 0, wc - 1)] = 255
-            cv2.dilate(occ, _K5, dst=occ)
-        keep = occ[np.clip((ep[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((ep[:, 0] * cx).astype(np.intp), 0, wc - 1)] == 0
+        if block is not None:
+            keep = block[np.clip(np.rint(ep[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(ep[:, 0]).astype(np.intp), 0, w - 1)] == 0
+        else:
+            wc, hc = self._coarse_size
+            cx, cy = wc / w, hc / h
+            occ = self._occ_c
+            occ[:] = 0
+            if len(pts):
+                occ[np.clip((pts[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((pts[:, 0] * cx).astype(np.intp), 0, wc - 1)] = 255
+                cv2.dilate(occ, _K5, dst=occ)
+            keep = occ[np.clip((ep[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((ep[:, 0] * cx).astype(np.intp), 0, wc - 1)] == 0
         if min_abs_nx > 0:
             keep &= np.abs(en[:, 0]) >= min_abs_nx
         if not keep.any():
             return pts, nrm
         return np.concatenate([pts, ep[keep]]), np.concatenate([nrm, en[keep]])
+
+    @staticmethod
+    def _long_runs(rp, size, min_rows):
+        """The ridge points ``rp`` (RidgePoints, on an image of ``size`` (w, h)) in
+        connected chains spanning at least ``min_rows`` rows: a smeared line is
+        long, a player's legs (a thin bright ridge once squashed) are not."""
+        if not len(rp.pts):
+            return rp
+        w, h = size
+        xi = np.clip(np.rint(rp.pts[:, 0]).astype(np.intp), 0, w - 1)
+        yi = np.clip(np.rint(rp.pts[:, 1]).astype(np.intp), 0, h - 1)
+        r = np.zeros((h, w), np.uint8)
+        r[yi, xi] = 255
+        cv2.dilate(r, _K3, dst=r)
+        _, lab, st, _ = cv2.connectedComponentsWithStats(r, connectivity=8)
+        keep = st[lab[yi, xi], cv2.CC_STAT_HEIGHT] >= min_rows
+        return RidgePoints(rp.pts[keep], rp.nrm[keep], rp.contrast[keep], rp.n_candidates)
 
     def _to_full(self, p: np.ndarray) -> np.ndarray:
         A = self.A_wf
@@ -225,7 +247,15 @@ class Detector:
         gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
         rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
         squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, bufs=self._rbufs_s)
-        pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, occupied=fine.pts)
+        if len(squashed.pts):
+            # blocked only where the fine scale found the same line sharp (within 2 px
+            # across it): the fine scale's scattered hits on a smeared band do not count
+            blk = self._block
+            blk[:] = 0
+            if len(fine.pts):
+                blk[np.clip(np.rint(fine.pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(fine.pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
+                cv2.dilate(blk, _KH5, dst=blk)
+            pts, nrm = self._merge(pts, nrm, self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9)), (w / ws, 1.0), min_abs_nx=0.95, block=blk)
         # a painted line has grass beside it; a white kit has a shirt above and
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):
