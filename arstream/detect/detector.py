@@ -242,20 +242,23 @@ class Detector:
         pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
         # a fast horizontal pan smears the near-vertical lines (the halfway line)
         # sideways into wide, faint bands: look for them on the frame squashed
-        # 4x horizontally, where they are thin again (near-vertical ones only)
+        # 4x horizontally, where they are thin again (near-vertical ones only;
+        # every frame: how blurred a frame is does not show reliably in cheap
+        # image statistics, and this pass costs about 1.3 ms)
         ws = self._squash_w
         gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
         rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
         squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, bufs=self._rbufs_s)
+        squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
         if len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px
-            # across it): the fine scale's scattered hits on a smeared band do not count
+            # across it): its scattered hits on a smeared band do not count
             blk = self._block
             blk[:] = 0
             if len(fine.pts):
                 blk[np.clip(np.rint(fine.pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(fine.pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
                 cv2.dilate(blk, _KH5, dst=blk)
-            pts, nrm = self._merge(pts, nrm, self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9)), (w / ws, 1.0), min_abs_nx=0.95, block=blk)
+            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk)
         # a painted line has grass beside it; a white kit has a shirt above and
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):

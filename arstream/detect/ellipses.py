@@ -89,23 +89,24 @@ def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _direct_fit_one(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_batched_direct_fit` for one scatter matrix (6, 6) (no batching overhead)."""
-    try:
-        T = -np.linalg.solve(S[3:, 3:], S[3:, :3])
-    except np.linalg.LinAlgError:
+    """:func:`_batched_direct_fit` for one scatter matrix (6, 6), with OpenCV's
+    small dense solvers (a few microseconds instead of numpy's per-call overhead).
+    The reduced 3x3 problem of the direct fit has real eigenvalues."""
+    ok, T = cv2.solve(S[3:, 3:], S[3:, :3], flags=cv2.DECOMP_LU)
+    if not ok:
         return np.full((1, 6), np.nan), np.zeros(1, bool)
+    T = -T
     M = S[:3, :3] + S[:3, 3:] @ T
     Mp = np.array([0.5 * M[2], -M[1], 0.5 * M[0]])
     if not np.isfinite(Mp).all():
         return np.full((1, 6), np.nan), np.zeros(1, bool)
-    w, V = np.linalg.eig(Mp)
-    V = V.real
-    cond = 4 * V[0] * V[2] - V[1] ** 2
-    ok = cond > 0
-    if not ok.any():
+    w, V = cv2.eigenNonSymmetric(Mp)  # eigenvectors in the rows
+    cond = 4 * V[:, 0] * V[:, 2] - V[:, 1] ** 2
+    good = cond > 0
+    if not good.any():
         return np.full((1, 6), np.nan), np.zeros(1, bool)
-    j = int(np.argmin(np.where(ok, np.abs(w.real), np.inf)))
-    a1 = V[:, j]
+    j = int(np.argmin(np.where(good, np.abs(w.ravel()), np.inf)))
+    a1 = V[j]
     return np.concatenate([a1, T @ a1])[None], np.ones(1, bool)
 
 

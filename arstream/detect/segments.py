@@ -40,17 +40,22 @@ class LineGroup:
 
 
 def _tls(P: np.ndarray):
-    """Total-least-squares line of points (N, 2): (line (3,), direction (2,), rms)."""
-    c = P.mean(axis=0)
-    d = P - c
-    S = d.T @ d
-    sxx, sxy, syy = float(S[0, 0]), float(S[0, 1]), float(S[1, 1])
+    """Total-least-squares line of points (N, 2): (line (3,), direction (2,), rms).
+    (Second moments from one product: coordinates are working pixels, so the
+    centring in floating point loses nothing that matters.)"""
+    n = len(P)
+    s = P.sum(axis=0)
+    S = P.T @ P
+    cx, cy = float(s[0]) / n, float(s[1]) / n
+    sxx = float(S[0, 0]) - n * cx * cx
+    sxy = float(S[0, 1]) - n * cx * cy
+    syy = float(S[1, 1]) - n * cy * cy
     phi = 0.5 * math.atan2(2 * sxy, sxx - syy)
     ux, uy = math.cos(phi), math.sin(phi)
     half = 0.5 * (sxx + syy)
     lmin = half - math.sqrt(max(half * half - (sxx * syy - sxy * sxy), 0.0))
-    rms = math.sqrt(max(lmin, 0.0) / len(P))
-    return np.array([-uy, ux, uy * c[0] - ux * c[1]]), np.array([ux, uy]), rms
+    rms = math.sqrt(max(lmin, 0.0) / n)
+    return np.array([-uy, ux, uy * cx - ux * cy]), np.array([ux, uy]), rms
 
 
 def group_lines(
@@ -174,7 +179,12 @@ def group_lines(
                 t = pts[members] @ u
             t0, t1 = float(t.min()), float(t.max())
             length = t1 - t0
-            if length < min_length or len(members) < 0.4 * length or rms > max_rms:
+            if length < min_length or len(members) < 0.4 * length:
+                continue
+            if rms > max_rms:  # the chord of a gentle curve (or a smeared band)
+                if labels is not None:
+                    curved_hits[np.bincount(labels[members]).argmax()] += 1
+                    any_curved = True
                 continue
             # straightness: a quadratic through the residuals, peak-to-peak over the length
             res = pts[members] @ line[:2] + line[2]
