@@ -106,11 +106,13 @@ class Item:
     frame : Frame (``frame.yuv`` is composited in place by the render stage)
     detections : the detector's result, or None (missing detector, or
         released while the frame waited for its smoothed camera)
-    matte : uint8 grass matte (255 = pitch) for keying, at the analysis size
+    matte : uint8 grass matte (255 = pitch) for keying, at the analysis size or
+        smaller (the render stage scales it to the frame)
         (the render stage scales it to the frame), or None
     estimate : CameraEstimate once the tracker has given it
     drawn : True when graphics were composited onto the frame
     timings : stage name -> milliseconds spent on this frame
+    cpu : stage name -> CPU milliseconds of the stage's own thread on this frame
     owned : True when ``detections`` and ``matte`` are private copies (not views
         into buffers the detector reuses)
     analysis : the frame at the analysis size (BGR), made once for detection and tracking
@@ -122,6 +124,7 @@ class Item:
     estimate: CameraEstimate | None = None
     drawn: bool = False
     timings: dict = field(default_factory=dict)
+    cpu: dict = field(default_factory=dict)
     owned: bool = False
     analysis: np.ndarray | None = None
 
@@ -268,8 +271,15 @@ class DetectStage(Stage):
             # needs only the line points (re-initialisation asks for the rest)
             det = self.detector.process(self.analysis.image(item), **self._lazy)
             item.detections = det
-            item.matte = getattr(det, "grass_mask", None)
+            item.matte = _matte_of(det)
         return [item]
+
+
+def _matte_of(det) -> np.ndarray | None:
+    """The detector's grass mask as a keying matte: the small one when it has one
+    (the render stage scales it to the frame once, smoothly), else the full one."""
+    small = getattr(det, "grass_small", None)
+    return small if small is not None else getattr(det, "grass_mask", None)
 
 
 def own_detections(item: Item) -> None:
@@ -278,8 +288,9 @@ def own_detections(item: Item) -> None:
     import copy
 
     if item.detections is not None and not item.owned:
-        item.detections = copy.deepcopy(item.detections)
-        item.matte = getattr(item.detections, "grass_mask", None)
+        det = item.detections
+        item.detections = det.detach() if hasattr(det, "detach") else copy.deepcopy(det)
+        item.matte = _matte_of(item.detections)
     elif item.matte is not None and not item.owned:
         item.matte = item.matte.copy()
     item.owned = True
@@ -317,13 +328,14 @@ class ThreadedStage(Stage):
             if item is None:
                 return
             try:
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.thread_time()
                 res = self.stage.process(item)
                 if len(res) != 1 or res[0] is not item:
                     raise ArstreamError(f"stage {self.name} must return exactly its input item to run on a thread")
                 if self.detach is not None:
                     self.detach(item)
                 item.timings[self.name] = item.timings.get(self.name, 0.0) + (time.perf_counter() - t0) * 1e3
+                item.cpu[self.name] = item.cpu.get(self.name, 0.0) + (time.thread_time() - c0) * 1e3
                 self.outq.put((item, None))
             except BaseException as exc:
                 self.outq.put((None, exc))
@@ -736,6 +748,8 @@ class Summary:
     errors : list of str, input damage (skipped packets, truncation)
     interrupted : int or None, the signal that stopped the run
     stage_ms : dict, mean milliseconds per frame of each stage
+    stage_cpu_ms : dict, mean CPU milliseconds per frame of each stage's own thread
+        (the encoder's and decoder's codec threads are not included)
     missing : list of str, pipeline stages whose module does not exist yet
     """
 
@@ -751,6 +765,7 @@ class Summary:
     errors: list = field(default_factory=list)
     interrupted: int | None = None
     stage_ms: dict = field(default_factory=dict)
+    stage_cpu_ms: dict = field(default_factory=dict)
     missing: list = field(default_factory=list)
     width: int = 0
     height: int = 0
@@ -792,6 +807,7 @@ class Summary:
             "errors": list(self.errors),
             "interrupted": self.interrupted,
             "stage_ms": {k: round(v, 3) for k, v in self.stage_ms.items()},
+            "stage_cpu_ms": {k: round(v, 3) for k, v in self.stage_cpu_ms.items()},
             "missing": list(self.missing),
             "size": [self.width, self.height],
         }
@@ -897,6 +913,7 @@ class Pipeline:
         self._decode_error: BaseException | None = None
         self.summary = Summary(input=source.path, width=source.width, height=source.height)
         self._stage_ms = collections.Counter()
+        self._stage_cpu = collections.Counter()
         self._late = 0
         self._conf = 0.0
         self._audio_stages = [s for s in self.stages if hasattr(s, "audio")]
@@ -961,10 +978,11 @@ class Pipeline:
             name = stage.name
             self_timed = getattr(stage, "self_timed", False)
             for it in items:
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.thread_time()
                 res = stage.process(it)
                 if not self_timed:
                     it.timings[name] = it.timings.get(name, 0.0) + (time.perf_counter() - t0) * 1e3
+                    it.cpu[name] = it.cpu.get(name, 0.0) + (time.thread_time() - c0) * 1e3
                 nxt.extend(res)
             items = nxt
             if not items:
@@ -977,6 +995,8 @@ class Pipeline:
         s.frames += 1
         for k, v in item.timings.items():
             self._stage_ms[k] += v
+        for k, v in item.cpu.items():
+            self._stage_cpu[k] += v
         est = item.estimate
         if est is not None and est.status != "lost":
             s.tracked += 1
@@ -1049,6 +1069,7 @@ class Pipeline:
                 if s.frames:
                     s.confidence = self._conf / s.frames
                     s.stage_ms = {k: v / s.frames for k, v in self._stage_ms.items()}
+                    s.stage_cpu_ms = {k: v / s.frames for k, v in self._stage_cpu.items()}
                     enc = next((st for st in self.stages if isinstance(st, EncodeStage)), None)
                     if enc is not None:
                         s.stage_ms["encode"] = enc.encode_ms / max(enc.frames_written, 1)

@@ -163,8 +163,8 @@ class Detector:
         r = np.zeros((h, w), np.uint8)
         r[yi, xi] = 255
         cv2.dilate(r, _K3, dst=r)
-        _, lab, st, _ = cv2.connectedComponentsWithStats(r, connectivity=8)
-        keep = st[lab[yi, xi], cv2.CC_STAT_HEIGHT] >= min_rows
+        _, lab = cv2.connectedComponents(r, connectivity=8)
+        keep = _chain_extent(lab[yi, xi], yi, yi) + 3 >= min_rows  # the dilated chain: a row more at each end
         return RidgePoints(rp.pts[keep], rp.nrm[keep], rp.contrast[keep], rp.n_candidates)
 
     def _to_full(self, p: np.ndarray) -> np.ndarray:
@@ -282,10 +282,9 @@ class Detector:
         cxi = np.clip((pts[:, 0] * (wc / w)).astype(np.intp), 0, wc - 1)
         cyi = np.clip((pts[:, 1] * (hc / h)).astype(np.intp), 0, hc - 1)
         occ[cyi, cxi] = 255
-        nl, lab, st, _ = cv2.connectedComponentsWithStats(occ, labels=self._lab_c, connectivity=8)
+        _, lab = cv2.connectedComponents(occ, labels=self._lab_c, connectivity=8)
         labels = lab[cyi, cxi]
-        ext = np.maximum(st[:, cv2.CC_STAT_WIDTH], st[:, cv2.CC_STAT_HEIGHT])
-        keep = ext[labels] >= max(5, 0.008 * wc)
+        keep = _chain_extent(labels, cxi, cyi) + 1 >= max(5, 0.008 * wc)
         if not keep.all():
             pts, nrm, labels = pts[keep], nrm[keep], labels[keep]
         lm = self._linemask_small
@@ -410,6 +409,22 @@ class Detector:
         t4 = time.perf_counter()
         timings.update(lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
         return lines, ellipses
+
+def _chain_extent(labels: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Per point, the larger side of its chain's bounding box (max - min of the
+    integer ``x`` and ``y`` (N,) over the points with the same label (N,)):
+    connectedComponentsWithStats without the cost of stats for every component."""
+    if len(labels) == 0:
+        return np.zeros(0, np.intp)
+    order = np.argsort(labels, kind="stable")
+    ls = labels[order]
+    starts = np.flatnonzero(np.r_[True, ls[1:] != ls[:-1]])
+    xs, ys = x[order], y[order]
+    ext = np.maximum(np.maximum.reduceat(xs, starts) - np.minimum.reduceat(xs, starts), np.maximum.reduceat(ys, starts) - np.minimum.reduceat(ys, starts))
+    out = np.empty(len(labels), np.intp)
+    out[order] = np.repeat(ext, np.diff(np.r_[starts, len(ls)]))
+    return out
+
 
 def _cut_by_line(e, P: np.ndarray, lines: list) -> bool:
     """Whether a straight line cuts the ellipse with all the support ``P`` (N, 2) on

@@ -129,7 +129,8 @@ class Detections:
 
     ``grass_mask`` and ``line_mask`` are upsampled on first access, into the
     detector's reused buffers; like every array here, they are valid until
-    the next :meth:`Detector.process` call (copy them to keep them).
+    the next :meth:`Detector.process` call (copy them, or :meth:`detach` the
+    result, to keep them).
     """
 
     def __init__(
@@ -173,6 +174,23 @@ class Detections:
     @property
     def grass_mask(self) -> np.ndarray:
         return self._grass.get()
+
+    @property
+    def grass_small(self) -> np.ndarray | None:
+        """The grass mask as detected, on a small copy of the frame (about 160 px
+        wide; same aspect), or None without a pitch: a matte to scale up once."""
+        return self._grass.small
+
+    def detach(self) -> "Detections":
+        """Make this result independent of the detector's reused buffers (cheaply:
+        the small masks are copied, the full-size ones made anew on access), so
+        it stays valid after the next :meth:`Detector.process` call. Returns self."""
+        for lm in (self._grass, self._line):
+            if lm.small is not None:
+                lm.small = lm.small.copy()
+            lm.buf = np.empty_like(lm.buf)
+            lm.done = False
+        return self
 
     @property
     def line_mask(self) -> np.ndarray:
