@@ -592,8 +592,13 @@ class RenderStage(Stage):
         self._matte = None
 
     def _full_matte(self, matte):
-        """The grass matte at the frame size (detected at the analysis size: scaled up, smoothly)."""
+        """The grass matte for the renderer: as it is when it has the frame's size or
+        is smaller with its aspect ratio (the renderer stretches it on the GPU),
+        else scaled to the frame."""
         if matte is None or matte.shape[:2] == (self.height, self.width):
+            return matte
+        h, w = matte.shape[:2]
+        if h < self.height and w < self.width and abs((self.width / w) / (self.height / h) - 1.0) <= 0.02:
             return matte
         if self._matte is None:
             self._matte = np.empty((self.height, self.width), np.uint8)

@@ -465,8 +465,12 @@ class Renderer:
     # ------------------------------------------------------------------ frame
     def _upload_matte(self, matte: np.ndarray, y0: int, y1: int) -> float:
         """Upload rows y0..y1 of the matte (plus the blur's reach); returns the scale that maps it to 0..1."""
-        pad = int(math.ceil(self.scene.matte_softness)) + 2
-        y0, y1 = max(y0 - pad, 0), min(y1 + pad, self.height)
+        h, w = matte.shape
+        if (h, w) == (self.height, self.width):
+            pad = int(math.ceil(self.scene.matte_softness)) + 2
+            y0, y1 = max(y0 - pad, 0), min(y1 + pad, self.height)
+        else:  # a small matte: all of it (the fragment shader samples normalised coordinates)
+            y0, y1 = 0, h
         rows = matte[y0:y1]
         if matte.dtype == np.bool_:
             kind, data, scale = "f1", rows.view(np.uint8), 255.0
@@ -475,13 +479,13 @@ class Renderer:
             scale = 255.0 if rows.size and int(rows.max()) <= 1 else 1.0
         else:
             kind, data, scale = "f4", rows.astype(np.float32, copy=False), 1.0
-        tex = self._matte_tex.get(kind)
+        tex = self._matte_tex.get((kind, h, w))
         if tex is None:
-            tex = self.ctx.texture((self.width, self.height), 1, dtype=kind)
+            tex = self.ctx.texture((w, h), 1, dtype=kind)
             tex.repeat_x = tex.repeat_y = False
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self._matte_tex[kind] = tex
-        tex.write(np.ascontiguousarray(data), viewport=(0, y0, self.width, y1 - y0))
+            self._matte_tex[(kind, h, w)] = tex
+        tex.write(np.ascontiguousarray(data), viewport=(0, y0, w, y1 - y0))
         tex.use(1)
         return scale
 
@@ -491,7 +495,13 @@ class Renderer:
         m = np.asarray(grass_matte)
         if m.ndim == 3 and m.shape[2] == 1:
             m = m[..., 0]
-        if m.shape != (self.height, self.width):
+        if m.ndim == 2 and 0 < m.shape[0] < self.height and 0 < m.shape[1] < self.width:
+            # a smaller matte (a detector's low-resolution grass mask) is stretched over the
+            # frame by the texture's bilinear filtering: same aspect ratio required
+            sx, sy = self.width / m.shape[1], self.height / m.shape[0]
+            if abs(sx / sy - 1.0) > 0.02:
+                raise ValueError(f"a grass_matte smaller than the frame must have its aspect ratio: {m.shape} for ({self.height}, {self.width})")
+        elif m.shape != (self.height, self.width):
             raise ValueError(f"grass_matte must be ({self.height}, {self.width}) like the frame, got {m.shape}")
         if m.dtype not in (np.bool_, np.uint8, np.float32, np.float64):
             raise ValueError(f"grass_matte must be bool, uint8 (255 = grass) or float (1 = grass), got {m.dtype}")
@@ -504,11 +514,13 @@ class Renderer:
         ----------
         camera : geometry.camera.Camera (OpenCV convention, pitch frame), or
             None for a frame without a camera (a "lost" frame: empty overlay)
-        grass_matte : (H, W) array or None
+        grass_matte : (H, W) array, a smaller one of the same aspect ratio, or None
             1 where the pixel is grass: bool; uint8 with 255 = grass (a 0/1
             uint8 mask is recognised by its maximum); or float in [0, 1].
             Keyed parts (on-grass objects by default) are multiplied by it,
-            blurred by the scene's ``matte_softness``. None: no keying.
+            blurred by the scene's ``matte_softness``. A smaller matte (such
+            as the detector's low-resolution grass mask) is stretched over the
+            frame by bilinear texture filtering, at no CPU cost. None: no keying.
 
         Returns
         -------

@@ -582,3 +582,25 @@ def test_geometry_behind_the_camera(ctx):
     assert np.isfinite(alpha).all() and alpha.max() == 1.0
     far_pt = cam.project(np.array([[3.0, 20.0, 0.0]]))[0]
     assert alpha[int(round(far_pt[1])), int(round(far_pt[0]))] > 0.5
+
+
+def test_a_small_matte_is_stretched_over_the_frame(ctx):
+    # the detector's grass mask is 8x smaller than the frame: keyed the same as
+    # the same mask scaled up on the CPU (bilinear), up to the filtering's edge
+    cam = CAMERAS["centred"]
+    red = np.zeros((8, 8, 4), np.uint8)
+    red[..., 2] = 255
+    red[..., 3] = 255
+    logo = Logo(red, center=(-6.0, -14.0), size=(10.0, 4.0))
+    small = np.full((H // 8, W // 8), 255, np.uint8)
+    c = np.round(cam.project(np.array([[-6.0, -14.0, 0.0]]))[0] / 8).astype(int)
+    small[c[1] - 8 : c[1] + 3, c[0] - 2 : c[0] + 2] = 0  # a player standing on the logo
+    big = cv2.resize(small, (W, H), interpolation=cv2.INTER_LINEAR)
+    a_small = _render_alpha(ctx, [logo], cam, grass_matte=small)
+    a_big = _render_alpha(ctx, [logo], cam, grass_matte=big)
+    logo_px = _render_alpha(ctx, [logo], cam) > 0.99
+    assert np.count_nonzero(logo_px & (a_big < 0.01)) > 300  # the player is cut out
+    assert np.mean(np.abs(a_small - a_big)[logo_px]) < 0.02
+    with Renderer(64, 48, Scene([]), ctx=ctx) as r:
+        with pytest.raises(ValueError, match=r"a grass_matte smaller than the frame must have its aspect ratio: \(12, 8\) for \(48, 64\)"):
+            r.render(main_camera(64, 48), np.zeros((12, 8), np.uint8))
