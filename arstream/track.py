@@ -74,6 +74,16 @@ def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
     return np.array([pan, tilt, roll, np.log(cam.focal)])
 
 
+def _image_shift(a: Camera, b: Camera, centre: np.ndarray, size) -> float:
+    """About how far (pixels) the image moves from camera ``a`` to ``b`` (same
+    tripod ``centre``): pan/tilt times the focal length, roll and zoom at the
+    frame's edge."""
+    za, zb = _ptz_vector(a, centre), _ptz_vector(b, centre)
+    d = zb - za
+    d[0] = _wrap(d[0])
+    return float(b.focal * np.hypot(d[0], d[1]) + 0.5 * size[0] * (abs(d[2]) + abs(d[3])))
+
+
 def _wrap(a: float) -> float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
@@ -140,8 +150,8 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
     for cam in cands:
         consider(cam, False)
     best = with_k1(best)
-    if best is not None and best.confidence >= 0.75:
-        return best
+    if best is not None and (best.confidence >= 0.75 or (best.confidence >= 0.55 and explained_share(best.camera, index, size, model) >= 0.9)):
+        return best  # (the line hypotheses below cost far more)
     # line correspondences: score every hypothesis by its unrefined support, refine the best few
     hyps = cameras_from_line_hypotheses([dl.line for dl in lines[:10]], size, principal_point, pitch)
     if hyps:
@@ -332,10 +342,13 @@ class Tracker:
         if kf is not None:
             kf.predict()
             pred_cam = self._camera_from_state(kf.x, centre)
-            for radii in ((8.0, 2.5), (25.0, 10.0, 4.0, 2.5)):
-                # a close prediction needs two short rounds; a fast pan may need a wider search
+            for radii in ((4.0,), (25.0, 10.0, 4.0, 2.5)):
+                # a close prediction needs one short round (a second when it moved the
+                # camera, matches being nearest neighbours); a fast pan a wider search
                 try:
                     r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
+                    if len(radii) == 1 and _image_shift(pred_cam, r.camera, centre, self.size) > 1.0:
+                        r = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(2.5,), max_points=400)
                 except ValueError:
                     continue
                 if meas is None or r.confidence > meas.confidence:

@@ -114,11 +114,11 @@ def local_out(archive, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def long_clip(archive, local_out, tmp_path_factory):
-    """Archive clip a repeated into a clip of about 2 seconds at the speed the pipeline
-    showed in ``local_out`` (at least 2 and at most 30 times): one that is still running
+    """Archive clip a repeated into a clip of about 6 seconds at the speed the pipeline
+    showed in ``local_out`` (at least 2 and at most 60 times): one that is still running
     when we look, whatever this build's speed. Returns (path, frames)."""
     fps = min(r["fps"] for r in local_out[1].clips if r["status"] == "ok")
-    times = int(min(max(round(2.0 * fps / FRAMES), 2), 30))
+    times = int(min(max(round(6.0 * fps / FRAMES), 2), 60))
     d = tmp_path_factory.mktemp("long")
     repeat_clip(archive / "a" / "clip.mp4", d / "long.mp4", times)
     return d / "long.mp4", times * FRAMES
