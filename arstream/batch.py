@@ -542,6 +542,7 @@ def process_clip(job: dict, progress_board=None) -> dict:
                 max_frames=params["max_frames"],
                 progress=reporter,
                 handle_signals=False,
+                threads=int(job.get("threads", 0)),
             )
         except (ArstreamError, ValueError, OSError) as exc:
             return failed(_first_line(exc))
@@ -1118,8 +1119,14 @@ def run(
         if engine == "local":
             n = min(int(workers) if workers else _cores(), len(todo))
             eng = _LocalEngine(n, want_progress=progress is not None)
+            # as many clips at once as cores: each one single-threaded (no thread
+            # overhead, no oversubscription); fewer: each uses its share of the cores
+            threads = 1 if n >= _cores() else 0
         else:
             eng = _RayEngine(workers, address, want_progress=progress is not None)
+            threads = 1  # a task holds one CPU of the cluster (num_cpus=1)
+        for job in todo:
+            job["threads"] = threads
         summary.workers = min(eng.capacity(), len(todo))
         running: dict = {}  # handle -> job
         frames_done = 0

@@ -1112,8 +1112,8 @@ def _missing(*stages) -> list[str]:
     return [name for name, mod in (("detect", "arstream.detect"), ("track", "arstream.track")) if any(st.name == name for st in stages) and not _has(mod)]
 
 
-def _open(input, *, format=None, options=None) -> VideoSource:
-    return VideoSource(input, format=format, options=options)
+def _open(input, *, format=None, options=None, threads: bool = True) -> VideoSource:
+    return VideoSource(input, format=format, options=options, threads=threads)
 
 
 def _check_output(output, input) -> None:
@@ -1157,6 +1157,7 @@ def process(
     handle_signals: bool = True,
     overlap: bool = True,
     analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+    threads: int = 0,
 ) -> Summary:
     """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
 
@@ -1179,6 +1180,12 @@ def process(
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     analysis_width : width (pixels) of the frames detection and tracking work on;
         None or 0: full resolution (see :class:`Analysis`)
+    threads : 0 (default): use the machine (detection overlapped on a thread,
+        decoder threads as FFmpeg chooses); 1: about one core's worth of work
+        per clip (no overlap, single-threaded decode), for running as many
+        clips at once as there are cores (``arstream batch``). x264 keeps its
+        own threading either way: its output depends on its thread count, and
+        a clip's video must not depend on how many ran beside it.
 
     Returns
     -------
@@ -1195,12 +1202,15 @@ def process(
         raise InputError("nothing to write: give an output video, cameras_out, or both")
     _check_output(output, input)
     _check_output(cameras_out, input)
-    with _open(input) as src:
+    if threads < 0:
+        raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
+    single = threads == 1
+    with _open(input, threads=not single) as src:
         W, H = src.width, src.height
         an = Analysis(W, H, analysis_width)
         stages = _build(
             [
-                lambda: _overlapped(DetectStage(W, H, analysis=an), overlap),
+                lambda: _overlapped(DetectStage(W, H, analysis=an), overlap and not single),
                 lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
