@@ -480,3 +480,19 @@ def test_overlapped_stage_gives_identical_output(small, tmp_path):
             outs.append([f.to_ndarray() for f in c.decode(video=0)])
     assert len(outs[0]) == len(outs[1]) == 12
     assert all(np.array_equal(a, b) for a, b in zip(*outs))
+
+
+def test_single_threaded_process_gives_identical_output(small, tmp_path):
+    """``threads=1`` (a batch worker per core: no detection overlap, one decoder
+    thread) writes the same video and cameras as the default."""
+    outs = []
+    for threads in (0, 1):
+        out, cams = tmp_path / f"t{threads}.mp4", tmp_path / f"t{threads}.jsonl"
+        s = arstream.process(small / "clip.mp4", out, cameras_out=cams, threads=threads, handle_signals=False)
+        assert s.frames == 12 and s.tracked >= 10
+        with av.open(str(out)) as c:
+            outs.append(([f.to_ndarray() for f in c.decode(video=0)], cams.read_bytes()))
+    assert outs[0][1] == outs[1][1]
+    assert len(outs[0][0]) == len(outs[1][0]) == 12 and all(np.array_equal(a, b) for a, b in zip(outs[0][0], outs[1][0]))
+    with pytest.raises(ValueError, match=r"threads must be 0 \(auto\) or positive, got -1"):
+        arstream.process(small / "clip.mp4", tmp_path / "x.mp4", threads=-1)
