@@ -2,7 +2,8 @@
 
 Each sub-command lives in ``arstream/commands/<name>.py``. Errors are one line
 on stderr and an exit code (2: bad input or usage, 1: processing failure,
-130: interrupted); ``--verbose`` adds the traceback.
+130: interrupted); a bug is one line too ("internal error", exit code 1), after the
+outputs were finalised. ``--verbose`` adds the traceback.
 """
 
 from __future__ import annotations
@@ -50,6 +51,12 @@ def main(argv: list[str] | None = None) -> int:
         code = getattr(exc, "exit_code", 2 if isinstance(exc, (ValueError, OSError)) else 1)
         print(f"arstream: error: {exc}", file=sys.stderr)
         return code
+    except Exception as exc:  # a bug: one line (the outputs were finalised on the way out)
+        if args.verbose:
+            traceback.print_exc()
+        where = "" if args.verbose else " (--verbose shows the traceback)"
+        print(f"arstream: internal error: {type(exc).__name__}: {exc}{where}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

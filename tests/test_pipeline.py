@@ -496,3 +496,24 @@ def test_single_threaded_process_gives_identical_output(small, tmp_path):
     assert len(outs[0][0]) == len(outs[1][0]) == 12 and all(np.array_equal(a, b) for a, b in zip(outs[0][0], outs[1][0]))
     with pytest.raises(ValueError, match=r"threads must be 0 \(auto\) or positive, got -1"):
         arstream.process(small / "clip.mp4", tmp_path / "x.mp4", threads=-1)
+
+
+def test_a_bug_in_a_stage_is_one_line_and_the_outputs_are_finalised(small, tmp_path, capsys, monkeypatch):
+    import arstream.track
+
+    orig = arstream.track.Tracker.process
+
+    def broken(self, index, *a, **k):
+        if index == 8:
+            raise AttributeError("'NoneType' object has no attribute 'fun'")
+        return orig(self, index, *a, **k)
+
+    monkeypatch.setattr(arstream.track.Tracker, "process", broken)
+    out, cams = tmp_path / "o.mp4", tmp_path / "c.jsonl"
+    assert cli("process", str(small / "clip.mp4"), "-o", str(out), "--cameras-out", str(cams), "--lag", "2", "-q") == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["arstream: internal error: AttributeError: 'NoneType' object has no attribute 'fun' (--verbose shows the traceback)"]
+    with av.open(str(out)) as c:  # what was done is a complete, playable file
+        n = sum(1 for _ in c.decode(video=0))
+    assert n == len(read_jsonl(cams)) == 6  # frames 0-5: the smoother held 6 and 7
+    assert not os.path.exists(atomic_path(str(out)))
