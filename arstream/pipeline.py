@@ -108,6 +108,8 @@ class Item:
         released while the frame waited for its smoothed camera)
     matte : uint8 grass matte (255 = pitch) for keying, at the analysis size or
         smaller (the render stage scales it to the frame)
+    lines : uint8 mask of the detected line pixels (small), kept for keying once
+        ``detections`` is let go
         (the render stage scales it to the frame), or None
     estimate : CameraEstimate once the tracker has given it
     drawn : True when graphics were composited onto the frame
@@ -121,6 +123,7 @@ class Item:
     frame: Frame
     detections: object | None = None
     matte: np.ndarray | None = None
+    lines: np.ndarray | None = None
     estimate: CameraEstimate | None = None
     drawn: bool = False
     timings: dict = field(default_factory=dict)
@@ -433,6 +436,9 @@ class TrackStage(Stage):
         if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
             if item.matte is not None and not item.owned:
                 item.matte = item.matte.copy()  # the detector reuses its buffers
+            det = item.detections
+            if det is not None and getattr(det, "line_small", None) is not None:
+                item.lines = det.line_small if item.owned else det.line_small.copy()
             item.detections = None
             item.analysis = None
             if item.frame.yuv is not None:
@@ -579,10 +585,12 @@ class RenderStage(Stage):
 
     name = "render"
 
-    def __init__(self, width: int, height: int, scene=None, *, renderer=None):
+    def __init__(self, width: int, height: int, scene=None, *, renderer=None, fine_key: bool = True):
         from render import GLContextError, Renderer
 
         self.width, self.height = width, height
+        self.fine_key = fine_key
+        self._fine = None
         if renderer is None:
             try:
                 renderer = Renderer(width, height, load_scene_arg(scene))
@@ -604,11 +612,41 @@ class RenderStage(Stage):
             self._matte = np.empty((self.height, self.width), np.uint8)
         return cv2.resize(matte, (self.width, self.height), dst=self._matte, interpolation=cv2.INTER_LINEAR)
 
+    def _key(self, item: Item):
+        """The renderer's grass matte for this frame. With ``fine_key`` and a
+        detector's pitch mask: a callable that keys the frame at full resolution
+        inside the overlay's rectangles only (render.keying.refine_matte: grass
+        colour or a detected line pixel, on the pitch), so that players and the
+        ball pass in front of on-grass graphics at pixel precision; else the
+        matte as it is (the renderer stretches a small one)."""
+        matte = item.matte
+        if matte is None or not self.fine_key or matte.shape[0] >= self.height:
+            return self._full_matte(matte)  # (a full-size matte is already fine)
+        from render.keying import refine_matte
+
+        f = item.frame
+        if f.yuv is not None:
+            from arstream.source import i420_region_bgr
+
+            def region(r):
+                return i420_region_bgr(f.yuv, f.width, f.height, r)
+        else:
+            img = f.image
+
+            def region(r):
+                return img[r[1] : r[3], r[0] : r[2]]
+
+        if self._fine is None:
+            self._fine = np.zeros((self.height, self.width), np.uint8)
+        lines = item.lines if item.lines is not None else getattr(item.detections, "line_small", None)
+        grow = max(1, int(round(3 * self.width / 1280)))  # about half a painted line's width
+        return lambda rects: refine_matte(self._fine, rects, region, matte, keep=lines, keep_grow=grow)
+
     def process(self, item: Item) -> list[Item]:
         cam = item.estimate.camera if item.estimate is not None else None
         if cam is None:
             return [item]
-        ov = self.renderer.render(cam, grass_matte=self._full_matte(item.matte))
+        ov = self.renderer.render(cam, grass_matte=self._key(item))
         if ov.empty:
             return [item]
         f = item.frame

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["green_matte"]
+__all__ = ["green_matte", "refine_matte"]
 
 
 def green_matte(frame_bgr: np.ndarray, *, hue=(35, 85), min_saturation: int = 70, min_value: int = 40,
@@ -36,3 +36,52 @@ def green_matte(frame_bgr: np.ndarray, *, hue=(35, 85), min_saturation: int = 70
         raise ValueError(f"hue range must satisfy 0 <= lo < hi <= 180, got {hue}")
     hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
     return cv2.inRange(hsv, (int(lo), int(min_saturation), int(min_value)), (int(hi), 255, 255), dst=out)
+
+
+def _sample(small: np.ndarray, rect, size) -> np.ndarray:
+    """Nearest samples of ``small`` (a mask covering the whole frame of ``size``
+    (W, H), at any resolution) at the pixels of ``rect``."""
+    x0, y0, x1, y1 = rect
+    W, H = size
+    h, w = small.shape[:2]
+    cols = np.minimum(((np.arange(x0, x1) + 0.5) * (w / W)).astype(np.intp), w - 1)
+    rows = np.minimum(((np.arange(y0, y1) + 0.5) * (h / H)).astype(np.intp), h - 1)
+    return small[rows[:, None], cols[None, :]]
+
+
+def refine_matte(out: np.ndarray, rects, region_bgr, pitch: np.ndarray, *, keep: np.ndarray | None = None, keep_grow: int = 0, **green) -> np.ndarray:
+    """A full-resolution grass matte, only inside ``rects``: the colour key of
+    the frame there (:func:`green_matte`: players, the ball, anything not
+    grass-coloured is cut out at pixel precision), or ``keep`` (pixels that
+    count as grass whatever their colour, such as painted lines, so that an
+    on-grass graphic is not cut by them), and only on the pitch (``pitch``,
+    a coarse mask: stands and boards are not grass even where green).
+
+    Parameters
+    ----------
+    out : (H, W) uint8, written inside ``rects`` (255 = grass); the rest is left as it is
+    rects : iterable of (x0, y0, x1, y1) half-open pixel rectangles
+    region_bgr : callable, rect -> (h, w, 3) uint8 BGR of the frame there
+    pitch : (h', w') uint8 mask of the whole frame at any resolution, 255 = pitch
+    keep : (h'', w'') uint8 mask of the whole frame at any resolution, optional
+    keep_grow : pixels by which ``keep`` is grown (a line mask of centres: half the line width)
+    green : options of :func:`green_matte`
+
+    Returns
+    -------
+    ``out``
+    """
+    H, W = out.shape
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * keep_grow + 1, 2 * keep_grow + 1)) if keep_grow > 0 else None
+    for rect in rects:
+        x0, y0, x1, y1 = (int(v) for v in rect)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        m = green_matte(region_bgr((x0, y0, x1, y1)), **green)
+        if keep is not None:
+            kp = _sample(keep, (x0, y0, x1, y1), (W, H))
+            if k is not None:
+                kp = cv2.dilate(kp, k)
+            cv2.bitwise_or(m, kp, dst=m)
+        out[y0:y1, x0:x1] = cv2.bitwise_and(m, _sample(pitch, (x0, y0, x1, y1), (W, H)))
+    return out

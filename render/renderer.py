@@ -514,13 +514,18 @@ class Renderer:
         ----------
         camera : geometry.camera.Camera (OpenCV convention, pitch frame), or
             None for a frame without a camera (a "lost" frame: empty overlay)
-        grass_matte : (H, W) array, a smaller one of the same aspect ratio, or None
+        grass_matte : (H, W) array, a smaller one of the same aspect ratio, a
+            callable, or None
             1 where the pixel is grass: bool; uint8 with 255 = grass (a 0/1
             uint8 mask is recognised by its maximum); or float in [0, 1].
             Keyed parts (on-grass objects by default) are multiplied by it,
             blurred by the scene's ``matte_softness``. A smaller matte (such
             as the detector's low-resolution grass mask) is stretched over the
-            frame by bilinear texture filtering, at no CPU cost. None: no keying.
+            frame by bilinear texture filtering, at no CPU cost. A callable
+            ``f(rects) -> matte`` is called with the overlay's rectangles
+            (``(x0, y0, x1, y1)`` pixels) once they are known and need fill
+            the matte only there (a fine key costs only where something is
+            drawn); it is not called when nothing is in view. None: no keying.
 
         Returns
         -------
@@ -531,13 +536,16 @@ class Renderer:
             raise ValueError(f"camera must be a geometry.camera.Camera or None, got {type(camera).__name__}")
         if self.ctx is None:
             raise ValueError("renderer was released")
-        matte = self._check_matte(grass_matte)
+        lazy_matte = callable(grass_matte)
+        matte = None if lazy_matte else self._check_matte(grass_matte)
         if camera is None:
             fp = Footprint([], np.zeros_like(self._prev_tiles), None, 0.1, 1.0)
         else:
             _coeffs(camera.dist)  # validates the number of coefficients
             fp = self.footprint(camera)
         rects = fp.rects
+        if lazy_matte and rects:
+            matte = self._check_matte(grass_matte(list(rects)))
         runs = _tile_runs(fp.tiles, self.width, self.height)  # what the GPU touches
         stale = _tile_runs(self._prev_tiles & ~fp.tiles, self.width, self.height)  # drawn last frame, not now
         rows = (min(r[1] for r in rects), max(r[3] for r in rects)) if rects else (0, 0)

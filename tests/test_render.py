@@ -604,3 +604,27 @@ def test_a_small_matte_is_stretched_over_the_frame(ctx):
     with Renderer(64, 48, Scene([]), ctx=ctx) as r:
         with pytest.raises(ValueError, match=r"a grass_matte smaller than the frame must have its aspect ratio: \(12, 8\) for \(48, 64\)"):
             r.render(main_camera(64, 48), np.zeros((12, 8), np.uint8))
+
+
+def test_refine_matte_keys_at_full_resolution_inside_the_rectangles():
+    from render.keying import refine_matte
+
+    H_, W_ = 72, 128
+    frame = np.zeros((H_, W_, 3), np.uint8)
+    frame[:] = (40, 140, 50)  # grass
+    frame[:12] = (60, 150, 60)  # green stands above the pitch
+    frame[30:50, 40:43] = (30, 30, 200)  # a player, 3 px wide: finer than the coarse mask
+    frame[20:70, 90:93] = (235, 235, 235)  # a painted line
+    pitch = np.full((H_ // 8, W_ // 8), 255, np.uint8)
+    pitch[:2] = 0  # the coarse pitch mask: not the stands
+    lines = np.zeros((H_ // 2, W_ // 2), np.uint8)
+    lines[10:35, 45] = 255  # the line's centre pixels, at half resolution
+    out = np.full((H_, W_), 7, np.uint8)
+    rects = [(0, 0, 64, 72), (64, 16, 128, 72)]
+    refine_matte(out, rects, lambda r: frame[r[1] : r[3], r[0] : r[2]], pitch, keep=lines, keep_grow=2)
+    assert np.all(out[30:50, 40:43] == 0)  # the player is cut out, to the pixel
+    assert np.all(out[30:50, 36:40] == 255) and np.all(out[30:50, 43:47] == 255)
+    assert np.all(out[25:65, 90:93] == 255)  # the line counts as grass
+    assert np.all(out[:12, :64] == 0)  # green, but not pitch
+    assert np.all(out[:16, 64:] == 7)  # outside the rectangles: untouched
+

@@ -181,6 +181,12 @@ class Detections:
         wide; same aspect), or None without a pitch: a matte to scale up once."""
         return self._grass.small
 
+    @property
+    def line_small(self) -> np.ndarray | None:
+        """The line-pixel mask as detected, at the working resolution (255 = a line
+        pixel's centre)."""
+        return self._line.small
+
     def detach(self) -> "Detections":
         """Make this result independent of the detector's reused buffers (cheaply:
         the small masks are copied, the full-size ones made anew on access), so
