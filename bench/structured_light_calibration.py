@@ -22,6 +22,7 @@ rendered images (stripe extraction, outline fitting).
 Usage::
 
     .venv/bin/python bench/structured_light_calibration.py [--trials 30] [--image-trials 3] [--json out.json]
+    .venv/bin/python bench/structured_light_calibration.py --setups --trials 20   # sphere size / range / M table
 """
 
 from __future__ import annotations
@@ -46,14 +47,23 @@ K0 = np.array([[1000.0, 0.0, 330.0], [0.0, 1010.0, 235.0], [0.0, 0.0, 1.0]])
 SIZE = (640, 480)
 R = 0.05
 R_TEST = 0.04
+ZRANGE = (0.6, 1.5)
 PROJ = np.array([0.3, 0.0, 0.0])
 PLANE = SL.LightPlane.from_point_normal(PROJ, [1.0, 0.0, 0.3])
 
 
-def centres(rng, n, r=R, max_offset=0.7):
-    out = []
+def centres(rng, n, r=R, max_offset=0.7, zrange=ZRANGE):
+    """n sphere centres at depths drawn from zrange, cut by the plane, the whole outline in the image.
+
+    Depths at which no such position exists are redrawn, so the depths actually used can span
+    less than zrange (the plane leaves the image's right edge close to the camera).
+    """
+    out, tries = [], 0
     while len(out) < n:
-        z = rng.uniform(0.6, 1.5)
+        tries += 1
+        if tries > 200000:
+            raise RuntimeError(f"no sphere position of radius {r} in the image at depths {zrange}")
+        z = rng.uniform(*zrange)
         y = rng.uniform(-0.18, 0.18) * z
         off = rng.uniform(-max_offset, max_offset) * r
         x = (PLANE.d + off - PLANE.normal[1] * y - PLANE.normal[2] * z) / PLANE.normal[0]
@@ -86,15 +96,21 @@ def observe(rng, X, r, noise):
     return e, s
 
 
-def trial(rng, M, noise):
-    X = centres(rng, M)
+def apparent_radius(X, r):
+    """Mean semi-axis (px) of the sphere's outline ellipse."""
+    return float(np.mean(ellipse_from_conic(outline_conic(K0, X, r)).axes))
+
+
+def trial(rng, M, noise, r=R, r_test=R_TEST, zrange=ZRANGE):
+    R, R_TEST = r, r_test  # noqa: N806  (the module defaults unless a setup overrides them)
+    X = centres(rng, M, r=R, zrange=zrange)
     edges, stripes = zip(*(observe(rng, x, R, noise) for x in X))
     conics = [fit_ellipse(e).conic for e in edges]
     t0 = time.perf_counter()
     res = SL.calibrate(conics, list(stripes), radius=R, edge_points=list(edges))
     dt = time.perf_counter() - t0
     # test sphere
-    Xt = centres(rng, 1, r=R_TEST, max_offset=0.6)[0]
+    Xt = centres(rng, 1, r=R_TEST, max_offset=0.6, zrange=zrange)[0]
     et, st = observe(rng, Xt, R_TEST, noise)
     m = SL.measure_sphere(res.K, res.plane, fit_ellipse(et).conic, st)
     wd = float(np.linalg.norm(Xt))
@@ -124,6 +140,9 @@ def trial(rng, M, noise):
         "calib_only_max": float(calib_only.max()),
         "time_s": dt,
         "n_stripe": res.n_stripe_points,
+        "apparent_px": float(np.median([apparent_radius(x, R) for x in X])),
+        "z_min": float(X[:, 2].min()),
+        "z_max": float(X[:, 2].max()),
     }
 
 
@@ -169,6 +188,54 @@ def run_synthetic(trials, M, noise, seed):
         f"calibration only max {pct('known_K_calib_only_max'):.3f} %",
         flush=True,
     )
+    return out
+
+
+SETUP_RADII = (0.05, 0.10)
+SETUP_RANGES = ((0.6, 1.5), (0.4, 0.9))
+SETUP_M = (10, 20)
+
+
+def run_setups(trials, noise=0.5, seed=300):
+    """Sphere radius x working range x number of positions (test sphere 0.8 R; camera and plane unchanged)."""
+    out = {}
+    print(
+        f"setups at {noise} px, {trials} trials each; mean (median) over trials. 'px': apparent sphere radius, median over "
+        "positions; 'depths': range of the calibration spheres' depths actually drawn (positions must fit in the image)",
+        flush=True,
+    )
+    hdr = (
+        "| R | range | M | px | depths | focal (joint) | normal (deg) | test radius | surface rms | surface rms, K known | fail |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    )
+    print("\n".join(hdr), flush=True)
+    i = 0
+    for r in SETUP_RADII:
+        for zr in SETUP_RANGES:
+            for M in SETUP_M:
+                rng = np.random.default_rng(seed + i)
+                i += 1
+                rows, fails = [], 0
+                for _ in range(trials):
+                    try:
+                        rows.append(trial(rng, M, noise, r=r, r_test=0.8 * r, zrange=zr))
+                    except ValueError as exc:
+                        fails += 1
+                        print("   failure:", exc, flush=True)
+                keys = ("apparent_px", "focal", "normal_deg", "test_radius_err", "surface_rms", "known_K_surface_rms")
+                s = {k: summary(rows, k) for k in keys}
+                s["z_min"] = min(row["z_min"] for row in rows)
+                s["z_max"] = max(row["z_max"] for row in rows)
+                s["failures"] = fails
+                out[f"R{r}_z{zr[0]}-{zr[1]}_M{M}"] = s
+                pc = lambda k: f"{100 * s[k]['mean']:.2f} % ({100 * s[k]['median']:.2f})"  # noqa: E731
+                print(
+                    f"| {100 * r:.0f} cm | {zr[0]}-{zr[1]} m | {M} | {s['apparent_px']['mean']:.0f} ({s['apparent_px']['median']:.0f}) "
+                    f"| {s['z_min']:.2f}-{s['z_max']:.2f} m | {pc('focal')} "
+                    f"| {s['normal_deg']['mean']:.3f} ({s['normal_deg']['median']:.3f}) | {pc('test_radius_err')} "
+                    f"| {pc('surface_rms')} | {pc('known_K_surface_rms')} | {fails} |",
+                    flush=True,
+                )
     return out
 
 
@@ -232,8 +299,19 @@ def main(argv=None) -> int:
     ap.add_argument("--trials", type=int, default=30, help="trials per configuration (README figures: 50)")
     ap.add_argument("--image-trials", type=int, default=3)
     ap.add_argument("--json", help="write the numbers to this file")
+    ap.add_argument(
+        "--setups", action="store_true",
+        help="instead: a table over sphere radius {5, 10 cm} x working range {0.6-1.5, 0.4-0.9 m} x M {10, 20} "
+        "positions at 0.5 px (use --trials 20)",
+    )
     args = ap.parse_args(argv)
     t0 = time.time()
+    if args.setups:
+        res = {"setups": run_setups(args.trials)}
+        print(f"total {time.time() - t0:.0f} s")
+        if args.json:
+            Path(args.json).write_text(json.dumps(res, indent=2))
+        return 0
     res = {"noise_free": noise_free(), "synthetic": {}}
     for M, noise in ((10, 0.5), (6, 0.5), (10, 1.0), (16, 0.5)):
         res["synthetic"][f"M{M}_noise{noise}"] = run_synthetic(args.trials, M, noise, seed=100 + M)
