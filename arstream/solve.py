@@ -35,10 +35,10 @@ import numpy as np
 import scipy.optimize
 from scipy.spatial import cKDTree
 
-from geometry.camera import PTZ, Camera, camera_from_homography, camera_from_ptz, intrinsic_matrix, ptz_from_camera
+from geometry.camera import Camera, camera_from_homography, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
 from geometry.homography import homography_from_lines
-from geometry.lines import intersect_lines, normalize_line
+from geometry.lines import normalize_line
 from geometry.pitch import Arc, PitchModel
 
 __all__ = [
@@ -188,7 +188,7 @@ def solve_from_circle(
         for a, b in zip(tracks[:-1], tracks[1:]):
             if a[k] is None or b[k] is None:
                 continue
-            (pa, la, ga), (pb, lb, gb) = a[k], b[k]
+            (pa, la, ga), (pb, _, gb) = a[k], b[k]
             if ga == 0 or np.sign(ga) != np.sign(gb):
                 ref = la
 
@@ -239,7 +239,6 @@ def solve_from_circle(
 
 
 def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width) -> CircleSolution:
-    Kn = np.diag([phi, phi, 1.0])
     Kn_inv = np.diag([1 / phi, 1 / phi, 1.0])
     En_inv = np.linalg.inv(En)
     o = En_inv @ lv  # imaged centre (normalised coords)

@@ -24,12 +24,12 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import cv2
 import numpy as np
 
-from geometry.camera import PTZ, Camera, camera_from_ptz, distort_normalized, undistort_normalized
+from geometry.camera import PTZ, Camera, camera_from_ptz, undistort_normalized
 from geometry.pitch import GOAL_HEIGHT, GOAL_WIDTH, Arc, PitchModel
 
 __all__ = ["Preset", "PRESETS", "SynthClip", "generate", "TruthFrame"]

@@ -49,12 +49,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 import calib.fmatrix as fm  # noqa: E402
 from geometry.camera import Camera, intrinsic_matrix  # noqa: E402
+from merton import DATA, facade, load_merton  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "vgg-merton-college-1"
 FIGURES = ROOT / "bench" / "figures"
 K = intrinsic_matrix(1000.0, 512.0, 384.0)
 ANGLES = (0.0, 0.5, 1.0, 2.0, 3.0, 5.0)
@@ -245,41 +246,13 @@ def robust(trials: int, threshold=2.0, seed=23):
 # ------------------------------------------------------------------------------------
 # 3. Merton College I
 # ------------------------------------------------------------------------------------
-def load_merton():
-    P = [np.loadtxt(DATA / "2D" / f"00{i}.P") for i in (1, 2)]
-    corners = [np.loadtxt(DATA / "2D" / f"00{i}.corners") for i in (1, 2)]
-    X = np.loadtxt(DATA / "3D" / "p3d")
-    rows = [line.split() for line in (DATA / "2D" / "nview-corners").read_text().splitlines() if line.strip()]
-    sel = [(k, int(r[0]), int(r[1])) for k, r in enumerate(rows) if r[0] != "*" and r[1] != "*"]
-    k = np.array([s[0] for s in sel])
-    x1 = corners[0][[s[1] for s in sel]]
-    x2 = corners[1][[s[2] for s in sel]]
-    axes = [p[2, :3] / np.linalg.norm(p[2, :3]) for p in P]
-    angle = float(np.degrees(np.arccos(np.clip(axes[0] @ axes[1], -1, 1))))
-    return fm.fundamental_from_cameras(P[0], P[1]), x1, x2, X[k], angle
-
-
 def _cross2(p, q):
     return p[0] * q[1] - p[1] * q[0]
 
 
-def facade(X):
-    rng = np.random.default_rng(0)
-    scale = np.median(np.linalg.norm(X - np.median(X, axis=0), axis=1))
-    best = np.zeros(len(X), bool)
-    for _ in range(500):
-        s = X[rng.choice(len(X), 3, replace=False)]
-        n = np.cross(s[1] - s[0], s[2] - s[0])
-        if np.linalg.norm(n) < 1e-9:
-            continue
-        inl = np.abs((X - s[0]) @ (n / np.linalg.norm(n))) < 0.005 * scale
-        if inl.sum() > best.sum():
-            best = inl
-    return best
-
-
 def merton(trials: int, robust_trials: int):
-    F_true, x1, x2, X, angle = load_merton()
+    m = load_merton(DATA)
+    F_true, x1, x2, X, angle = m["F"], m["x1"], m["x2"], m["X"], m["angle"]
     plane = facade(X)
     on, off = np.flatnonzero(plane), np.flatnonzero(~plane)
     n = len(x1)

@@ -102,6 +102,7 @@ import scipy.optimize
 
 from calib._fit import conic_to_vec6, sampson_with_jacobian
 from calib.sphere import _K_from_params as _K_of
+from calib.sphere import _check_radius
 from calib.sphere import _model_name
 from calib.sphere import _params_from_K as _params_of
 from calib.sphere import centre_direction, intrinsics_from_spheres
@@ -238,14 +239,6 @@ def _K_from_omega(omega: np.ndarray, T: np.ndarray, model: str) -> np.ndarray:
     return _K_of(_params_of(K, model), model)
 
 
-def _check_radius(radius) -> float:
-    try:
-        r = float(radius)
-    except (TypeError, ValueError):
-        raise ValueError(f"radius must be a positive number, got {radius!r}") from None
-    if not (np.isfinite(r) and r > 0):
-        raise ValueError(f"radius must be positive and finite, got {radius}")
-    return r
 
 
 def _project(K: np.ndarray, X: np.ndarray) -> np.ndarray:

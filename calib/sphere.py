@@ -257,6 +257,7 @@ def _check_conic(C, name: str = "conic", *, ellipse: bool = True) -> np.ndarray:
 
 
 def _check_radius(radius) -> float:
+    """A positive, finite sphere radius (ValueError otherwise)."""
     try:
         r = float(radius)
     except (TypeError, ValueError):
@@ -266,12 +267,13 @@ def _check_radius(radius) -> float:
     return r
 
 
-def _check_points(p, name: str) -> np.ndarray:
+def _check_points(p, name: str, min_count: int = 5) -> np.ndarray:
+    """Finite pixel coordinates (N, 2), at least ``min_count`` of them (ValueError naming ``name``)."""
     p = np.asarray(p, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2), got {p.shape}")
-    if len(p) < 5:
-        raise ValueError(f"{name} needs at least 5 points, got {len(p)}")
+    if len(p) < min_count:
+        raise ValueError(f"{name} needs at least {min_count} points, got {len(p)}")
     if not np.all(np.isfinite(p)):
         raise ValueError(f"{name} has non-finite coordinates")
     return p
@@ -1482,7 +1484,6 @@ def rig_extrinsics(
     nK = len(_params_from_K(Ks[0], model))
     Kp0 = np.array([_params_from_K(_project_K(K, model), model) for K in Ks])
     npose = 6 * (N - 1)
-    nK_tot = nK * N if refine_intrinsics else 0
 
     def unpack(x):
         pose = np.zeros((N, 6))

@@ -57,7 +57,7 @@ import scipy.optimize
 
 from calib._fit import conic_to_vec6, sampson_with_jacobian
 from calib.one_d import _K_of, _N_PARAMS, _cone_conics, _model_name, _params_of, _tangent_basis
-from calib.sphere import centre_direction, fit_sphere_outline, intrinsics_from_spheres, sphere_centre
+from calib.sphere import _check_points, _check_radius, centre_direction, fit_sphere_outline, intrinsics_from_spheres, sphere_centre
 from geometry.conics import (
     conic_conditioning,
     ellipse_distance,
@@ -245,25 +245,8 @@ def _as_plane(plane) -> LightPlane:
     return LightPlane.from_vector(plane)
 
 
-def _check_pixels(p, name: str, min_count: int = 1) -> np.ndarray:
-    p = np.asarray(p, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (N, 2), got {p.shape}")
-    if len(p) < min_count:
-        raise ValueError(f"{name} needs at least {min_count} points, got {len(p)}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError(f"{name} has non-finite coordinates")
-    return p
 
 
-def _check_radius(radius) -> float:
-    try:
-        r = float(radius)
-    except (TypeError, ValueError):
-        raise ValueError(f"radius must be a positive number, got {radius!r}") from None
-    if not (np.isfinite(r) and r > 0):
-        raise ValueError(f"radius must be positive and finite, got {radius}")
-    return r
 
 
 # --------------------------------------------------------------------------
@@ -412,7 +395,7 @@ def fit_stripe_conic(outline, pixels) -> StripeFit:
         ellipse_from_conic(C)
     except ValueError:
         raise ValueError("outline is not a real ellipse, so not the outline of a sphere") from None
-    p = _check_pixels(pixels, "pixels", 3)
+    p = _check_points(pixels, "pixels", 3)
     T = conic_conditioning(C)
     Ti = np.linalg.inv(T)
     Cc = normalize_conic(Ti.T @ C @ Ti)
@@ -451,7 +434,7 @@ def triangulate(K, plane, pixels) -> np.ndarray:
     """
     K = _check_K(K)
     pl = _as_plane(plane)
-    p = _check_pixels(pixels, "pixels")
+    p = _check_points(pixels, "pixels", 1)
     rays = np.column_stack([p, np.ones(len(p))]) @ np.linalg.inv(K).T
     den = rays @ pl.normal
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -477,7 +460,7 @@ def backproject_to_sphere(K, centre, radius, pixels, *, tolerance: float = 0.0) 
     K = _check_K(K)
     r = _check_radius(radius)
     X = np.asarray(centre, dtype=np.float64).reshape(3)
-    p = _check_pixels(pixels, "pixels")
+    p = _check_points(pixels, "pixels", 1)
     rays = np.column_stack([p, np.ones(len(p))]) @ np.linalg.inv(K).T
     rays /= np.linalg.norm(rays, axis=1, keepdims=True)
     b = rays @ X
@@ -942,7 +925,7 @@ def calibrate(
             except ValueError:
                 raise ValueError(f"sphere_images[{j}] is not a real ellipse, so not the outline of a sphere") from None
             conics.append(C)
-        edges = None if edge_points is None else [_check_pixels(p, f"edge_points[{j}]", 5) for j, p in enumerate(edge_points)]
+        edges = None if edge_points is None else [_check_points(p, f"edge_points[{j}]") for j, p in enumerate(edge_points)]
         stripes = list(stripe_points)
     else:
         conics, edges, stripes = [], [], []
@@ -981,7 +964,7 @@ def calibrate(
                 f"stripe_points[{j}] has {len(s)} points (at least 5 needed): the laser stripe misses the "
                 "sphere in that image (or give None for an image without stripe)"
             )
-        s = _check_pixels(s, f"stripe_points[{j}]", 5)
+        s = _check_points(s, f"stripe_points[{j}]")
         try:
             s = _clean_stripe(conics[j], s)
         except ValueError as exc:
@@ -1071,7 +1054,7 @@ def measure_sphere(K, plane, outline, pixels) -> SphereMeasurement:
     """
     K = _check_K(K)
     pl = _as_plane(plane)
-    p = _check_pixels(pixels, "pixels", 3)
+    p = _check_points(pixels, "pixels", 3)
     d, a = centre_direction(K, outline)
     P = triangulate(K, pl, p)
     P = P[np.all(np.isfinite(P), axis=1)]

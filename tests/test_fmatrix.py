@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import doctest
 import json
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -16,8 +15,8 @@ from scipy.spatial.transform import Rotation
 import calib.fmatrix as fm
 from arstream.cli import main as cli_main
 from geometry.camera import Camera, intrinsic_matrix
+from merton import DATA, facade, load_merton
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "vgg-merton-college-1"
 K = intrinsic_matrix(1000.0, 512.0, 384.0)
 COP = [0, 1, 2, 3]
 
@@ -470,31 +469,7 @@ def test_estimate_no_worse_than_magsac_at_50_percent_outliers():
 def merton():
     if not DATA.is_dir():
         pytest.skip(f"real data not found at {DATA} (the shared/ folder beside the checkout)")
-    P = [np.loadtxt(DATA / "2D" / f"00{i}.P") for i in (1, 2)]
-    corners = [np.loadtxt(DATA / "2D" / f"00{i}.corners") for i in (1, 2)]
-    X = np.loadtxt(DATA / "3D" / "p3d")
-    rows = [line.split() for line in (DATA / "2D" / "nview-corners").read_text().splitlines() if line.strip()]
-    sel = [(k, int(r[0]), int(r[1])) for k, r in enumerate(rows) if r[0] != "*" and r[1] != "*"]
-    k = np.array([s[0] for s in sel])
-    x1 = corners[0][[s[1] for s in sel]]
-    x2 = corners[1][[s[2] for s in sel]]
-    return {"F": fm.fundamental_from_cameras(P[0], P[1]), "x1": x1, "x2": x2, "X": X[k]}
-
-
-def _facade(X: np.ndarray) -> np.ndarray:
-    """Mask of the points of the largest plane of the reconstruction (seeded RANSAC)."""
-    rng = np.random.default_rng(0)
-    scale = np.median(np.linalg.norm(X - np.median(X, axis=0), axis=1))
-    best = np.zeros(len(X), bool)
-    for _ in range(500):
-        s = X[rng.choice(len(X), 3, replace=False)]
-        n = np.cross(s[1] - s[0], s[2] - s[0])
-        if np.linalg.norm(n) < 1e-9:
-            continue
-        inl = np.abs((X - s[0]) @ (n / np.linalg.norm(n))) < 0.005 * scale
-        if inl.sum() > best.sum():
-            best = inl
-    return best
+    return load_merton(DATA)
 
 
 def test_merton_ground_truth_is_consistent(merton):
@@ -505,7 +480,7 @@ def test_merton_ground_truth_is_consistent(merton):
 @pytest.mark.parametrize("method", fm.SIX_POINT_METHODS)
 def test_merton_six_point_on_a_facade(merton, method):
     x1, x2, F_true = merton["x1"], merton["x2"], merton["F"]
-    plane = _facade(merton["X"])
+    plane = facade(merton["X"])
     ids = np.flatnonzero(plane)
     assert len(ids) >= 40
     quad = [int(ids[np.argmax(x1[ids] @ np.array(v))]) for v in ((-1, -1), (1, -1), (1, 1), (-1, 1))]

@@ -20,7 +20,7 @@ from calib import structured_light as SL
 from calib import synthetic as syn
 from calib.sphere import outline_conic
 from geometry.camera import iac
-from geometry.conics import double_contact, fit_ellipse, intersect_conics, real_points, sampson_distance
+from geometry.conics import double_contact, fit_ellipse, intersect_conics, sampson_distance
 
 K0 = np.array([[1000.0, 0.0, 330.0], [0.0, 1010.0, 235.0], [0.0, 0.0, 1.0]])
 SIZE = (640, 480)

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 ORDER = 30
 
@@ -55,51 +53,36 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from arstream.commands._clip import analysis_width, run_clip
     from arstream.errors import InputError
-    from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Interrupted, process
-    from arstream.progress import Progress
+    from arstream.pipeline import process
 
     if args.output is None and args.cameras_out is None:
         raise InputError("nothing to write: give -o OUT.mp4, --cameras-out FILE, or both")
     if args.lag < 0:
         raise InputError(f"--lag must be 0 or more, got {args.lag}")
-    if args.analysis_width is not None and 0 < args.analysis_width < 64:
-        raise InputError(f"--analysis-width must be 0 (full resolution) or at least 64, got {args.analysis_width}")
-    bar = Progress(None, label="process", stream=sys.stderr)
-    if args.quiet:
-        bar.enabled = False
-    try:
-        with bar:
-            summary = process(
-                args.input,
-                args.output,
-                scene=args.scene,
-                cameras_out=args.cameras_out,
-                lag=args.lag,
-                crf=args.crf,
-                preset=args.preset,
-                audio=not args.no_audio,
-                progress=bar.update,
-                max_frames=args.frames,
-                analysis_width=DEFAULT_ANALYSIS_WIDTH if args.analysis_width is None else (args.analysis_width or None),
-            )
-    except Interrupted as exc:
-        _report(exc.summary, args)
-        print(f"arstream: interrupted ({exc.summary.frames} frames written; outputs finalised)", file=sys.stderr)
-        return exc.exit_code
-    return _report(summary, args)
+    aw = analysis_width(args)
+    return run_clip(
+        lambda progress: process(
+            args.input,
+            args.output,
+            scene=args.scene,
+            cameras_out=args.cameras_out,
+            lag=args.lag,
+            crf=args.crf,
+            preset=args.preset,
+            audio=not args.no_audio,
+            progress=progress,
+            max_frames=args.frames,
+            analysis_width=aw,
+        ),
+        args,
+        label="process",
+        verb="processed",
+        finalised="; outputs finalised",
+        missing=missing_stage,
+    )
 
 
-def _report(summary, args) -> int:
-    if args.json:
-        print(json.dumps(summary.to_dict(), indent=2))
-    else:
-        print(summary.line())
-    for stage in summary.missing:
-        print(f"arstream: warning: no {stage} stage in this build (arstream/{stage}.py is missing): frames pass through it unchanged", file=sys.stderr)
-    if summary.errors:
-        for e in summary.errors:
-            print(f"arstream: warning: {e}", file=sys.stderr)
-        print(f"arstream: error: the input is damaged; {summary.frames} frames were processed and written", file=sys.stderr)
-        return 1
-    return 0
+def missing_stage(stage: str) -> str:
+    return f" (arstream/{stage}.py is missing): frames pass through it unchanged"

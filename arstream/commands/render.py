@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
-import sys
 
 ORDER = 40
 
@@ -61,48 +59,29 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     import render
-    from arstream.pipeline import Interrupted, render_clip
-    from arstream.progress import Progress
+    from arstream.commands._clip import run_clip
+    from arstream.pipeline import render_clip
 
     scene = render.load_scene(args.scene) if args.scene else render.default_scene()  # bad scene: exit 2 before decoding
     if args.key == "auto":
         key = "detector" if importlib.util.find_spec("arstream.detect") is not None else "green"
     else:
         key = None if args.key == "none" else args.key
-    bar = Progress(None, label="render", stream=sys.stderr)
-    if args.quiet:
-        bar.enabled = False
-    try:
-        with bar:
-            summary = render_clip(
-                args.input,
-                args.cameras,
-                args.output,
-                scene=scene,
-                key=key,
-                crf=args.crf,
-                preset=args.preset,
-                audio=not args.no_audio,
-                progress=bar.update,
-            )
-    except Interrupted as exc:
-        _report(exc.summary, args)
-        print(f"arstream: interrupted ({exc.summary.frames} frames written; output finalised)", file=sys.stderr)
-        return exc.exit_code
-    return _report(summary, args)
-
-
-def _report(summary, args) -> int:
-    if args.json:
-        print(json.dumps(summary.to_dict(), indent=2))
-    else:
-        print(summary.line())
-    for stage in summary.missing:
-        what = "graphics are not keyed (players do not pass in front)" if stage == "detect" else "frames pass through it unchanged"
-        print(f"arstream: warning: no {stage} stage in this build: {what}", file=sys.stderr)
-    if summary.errors:
-        for e in summary.errors:
-            print(f"arstream: warning: {e}", file=sys.stderr)
-        print(f"arstream: error: the input is damaged; {summary.frames} frames were rendered and written", file=sys.stderr)
-        return 1
-    return 0
+    return run_clip(
+        lambda progress: render_clip(
+            args.input,
+            args.cameras,
+            args.output,
+            scene=scene,
+            key=key,
+            crf=args.crf,
+            preset=args.preset,
+            audio=not args.no_audio,
+            progress=progress,
+        ),
+        args,
+        label="render",
+        verb="rendered",
+        finalised="; output finalised",
+        missing=lambda stage: ": graphics are not keyed (players do not pass in front)" if stage == "detect" else ": frames pass through it unchanged",
+    )

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 ORDER = 50
 
@@ -78,38 +77,32 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from arstream.commands.process import _report
-    from arstream.errors import InputError
-    from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Interrupted, stream
-    from arstream.progress import Progress
+    from arstream.commands._clip import analysis_width, run_clip
+    from arstream.commands.process import missing_stage
+    from arstream.pipeline import stream
 
     rerun = None if args.rerun == ["none"] else args.rerun
-    if args.analysis_width is not None and 0 < args.analysis_width < 64:
-        raise InputError(f"--analysis-width must be 0 (full resolution) or at least 64, got {args.analysis_width}")
-    bar = Progress(None, label="stream", stream=sys.stderr)
-    if args.quiet:
-        bar.enabled = False
-    try:
-        with bar:
-            summary = stream(
-                args.source,
-                rerun=rerun,
-                realtime=args.realtime,
-                scene=args.scene,
-                output=args.output,
-                cameras_out=args.cameras_out,
-                format=args.format,
-                options=dict(args.option) or None,
-                bind=args.bind,
-                port=args.port,
-                jpeg_quality=args.jpeg_quality,
-                max_frames=args.frames,
-                progress=bar.update,
-                analysis_width=DEFAULT_ANALYSIS_WIDTH if args.analysis_width is None else (args.analysis_width or None),
-            )
-    except Interrupted as exc:
-        _report(exc.summary, args)
-        print(f"arstream: interrupted ({exc.summary.frames} frames)", file=sys.stderr)
-        return exc.exit_code
-    return _report(summary, args)
-
+    aw = analysis_width(args)
+    return run_clip(
+        lambda progress: stream(
+            args.source,
+            rerun=rerun,
+            realtime=args.realtime,
+            scene=args.scene,
+            output=args.output,
+            cameras_out=args.cameras_out,
+            format=args.format,
+            options=dict(args.option) or None,
+            bind=args.bind,
+            port=args.port,
+            jpeg_quality=args.jpeg_quality,
+            max_frames=args.frames,
+            progress=progress,
+            analysis_width=aw,
+        ),
+        args,
+        label="stream",
+        verb="processed",
+        finalised="",
+        missing=missing_stage,
+    )

@@ -1,0 +1,57 @@
+"""What the clip commands (process, render, stream) share: the analysis-width
+option, running under a progress bar, and reporting the summary."""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Callable
+
+
+def analysis_width(args) -> int | None:
+    """``--analysis-width`` as the library takes it: the default when not given,
+    None for 0 (full resolution); InputError below 64 px."""
+    from arstream.errors import InputError
+    from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH
+
+    w = args.analysis_width
+    if w is not None and 0 < w < 64:
+        raise InputError(f"--analysis-width must be 0 (full resolution) or at least 64, got {w}")
+    return DEFAULT_ANALYSIS_WIDTH if w is None else (w or None)
+
+
+def run_clip(call: Callable, args, *, label: str, verb: str, finalised: str, missing: Callable[[str], str]) -> int:
+    """Run ``call(progress)`` (a library function over one clip) under a progress
+    bar (silent with ``--quiet`` or off a terminal), print its summary and
+    return the exit code; on Ctrl-C, report what was done and say ``finalised``.
+
+    ``verb``: what was done to the frames (for the damaged-input error);
+    ``missing(stage)``: what a stage missing from this build means."""
+    from arstream.pipeline import Interrupted
+    from arstream.progress import Progress
+
+    bar = Progress(None, label=label, stream=sys.stderr)
+    if args.quiet:
+        bar.enabled = False
+    try:
+        with bar:
+            summary = call(bar.update)
+    except Interrupted as exc:
+        report(exc.summary, args, verb=verb, missing=missing)
+        print(f"arstream: interrupted ({exc.summary.frames} frames{finalised})", file=sys.stderr)
+        return exc.exit_code
+    return report(summary, args, verb=verb, missing=missing)
+
+
+def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
+    """Print a pipeline summary (one line, or JSON with ``--json``), warn about
+    missing stages and input damage; the exit code (1 for a damaged input)."""
+    print(json.dumps(summary.to_dict(), indent=2) if args.json else summary.line())
+    for stage in summary.missing:
+        print(f"arstream: warning: no {stage} stage in this build{missing(stage)}", file=sys.stderr)
+    if summary.errors:
+        for e in summary.errors:
+            print(f"arstream: warning: {e}", file=sys.stderr)
+        print(f"arstream: error: the input is damaged; {summary.frames} frames were {verb} and written", file=sys.stderr)
+        return 1
+    return 0
