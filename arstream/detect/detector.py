@@ -111,6 +111,7 @@ class Detector:
         self._region_s = np.empty((h, self._squash_w), np.uint8)
         self._rbufs_s: dict = {}
         self._block = np.empty((h, w), np.uint8)
+        self._runs_buf = np.empty((h, self._squash_w), np.uint8)
         self._grass_full = np.empty((height, width), np.uint8)
         self._line_full = np.empty((height, width), np.uint8)
         self._gbufs: dict = {}
@@ -150,8 +151,7 @@ class Detector:
             return pts, nrm
         return np.concatenate([pts, ep[keep]]), np.concatenate([nrm, en[keep]])
 
-    @staticmethod
-    def _long_runs(rp, size, min_rows):
+    def _long_runs(self, rp, size, min_rows):
         """The ridge points ``rp`` (RidgePoints, on an image of ``size`` (w, h)) in
         connected chains spanning at least ``min_rows`` rows: a smeared line is
         long, a player's legs (a thin bright ridge once squashed) are not."""
@@ -160,7 +160,8 @@ class Detector:
         w, h = size
         xi = np.clip(np.rint(rp.pts[:, 0]).astype(np.intp), 0, w - 1)
         yi = np.clip(np.rint(rp.pts[:, 1]).astype(np.intp), 0, h - 1)
-        r = np.zeros((h, w), np.uint8)
+        r = self._runs_buf
+        r[:] = 0
         r[yi, xi] = 255
         cv2.dilate(r, _K3, dst=r)
         _, lab = cv2.connectedComponents(r, connectivity=8)
@@ -294,14 +295,12 @@ class Detector:
         line_points = self._to_full(pts)
         t2 = time.perf_counter()
         timings["line_pixels"] = 1e3 * (t2 - t1)
-        if lazy:
-            # private copies of what the structure needs from reused buffers: it may
-            # run after the next frame's process() (on another thread)
-            filled, scratch = g.filled.copy(), np.empty_like(self._scratch)
-        else:
-            filled, scratch = g.filled, self._scratch
+        # lazy: a private copy of the pitch mask (it may run after the next frame's
+        # process(), on another thread) and a scratch buffer of its own, made only if it runs
+        filled = g.filled.copy() if lazy else g.filled
 
         def structure():
+            scratch = np.empty_like(self._scratch) if lazy else self._scratch
             return self._structure(pts, nrm, labels, line_points, filled, scratch, timings)
 
         det = Detections(

@@ -58,6 +58,16 @@ def _tls(P: np.ndarray):
     return np.array([-uy, ux, uy * cx - ux * cy]), np.array([ux, uy]), rms
 
 
+def _count_curve(curved_hits: np.ndarray, labels: np.ndarray | None, members: np.ndarray) -> bool:
+    """Count a failed straight-line candidate against the chain most of its
+    points belong to (a chain that fails twice is not tried again); whether
+    anything was counted."""
+    if labels is None:
+        return False
+    curved_hits[np.bincount(labels[members]).argmax()] += 1
+    return True
+
+
 def group_lines(
     pts: np.ndarray,
     nrm: np.ndarray,
@@ -182,9 +192,7 @@ def group_lines(
             if length < min_length or len(members) < 0.4 * length:
                 continue
             if rms > max_rms:  # the chord of a gentle curve (or a smeared band)
-                if labels is not None:
-                    curved_hits[np.bincount(labels[members]).argmax()] += 1
-                    any_curved = True
+                any_curved |= _count_curve(curved_hits, labels, members)
                 continue
             # straightness: a quadratic through the residuals, peak-to-peak over the length
             res = pts[members] @ line[:2] + line[2]
@@ -192,9 +200,7 @@ def group_lines(
             q2 = uu * uu - (1.0 / 3.0)
             k2 = float(q2 @ res) / max(float(q2 @ q2), 1e-12)  # u^2 is orthogonal to u and 1 on a symmetric spread
             if abs(k2) > max_sagitta:
-                if labels is not None:
-                    curved_hits[np.bincount(labels[members]).argmax()] += 1
-                    any_curved = True
+                any_curved |= _count_curve(curved_hits, labels, members)
                 continue
             used[members] = True
             groups.append(LineGroup(members, line, u, rms, t0, t1))
