@@ -102,7 +102,7 @@ import scipy.optimize
 
 from calib._fit import conic_to_vec6, sampson_with_jacobian
 from calib.sphere import _K_from_params as _K_of
-from calib.sphere import _check_radius
+from calib.sphere import _check_conic, _check_radius
 from calib.sphere import _model_name
 from calib.sphere import _params_from_K as _params_of
 from calib.sphere import centre_direction, intrinsics_from_spheres
@@ -561,20 +561,6 @@ def zhang_1d(
 # --------------------------------------------------------------------------
 
 
-def _check_conic(C, name: str) -> np.ndarray:
-    C = np.asarray(C, dtype=np.float64)
-    if C.shape != (3, 3):
-        raise ValueError(f"{name} must be a 3x3 conic matrix, got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise ValueError(f"{name} has non-finite entries")
-    if np.linalg.norm(C) == 0:
-        raise ValueError(f"{name} is zero")
-    Cn = normalize_conic(C)
-    try:
-        ellipse_from_conic(Cn)
-    except ValueError:
-        raise ValueError(f"{name} is not a real ellipse, so not the outline of a sphere") from None
-    return Cn
 
 
 def _pair_line(C1: np.ndarray, C2: np.ndarray):
