@@ -22,6 +22,13 @@ each frame's estimate at once; offline mode (``lag=N``) runs an RTS smoother
 over a sliding window and emits estimates N frames late, so memory stays
 bounded (only camera parameters are kept).
 
+Whip pans: when the pan outruns the motion model and blur leaves too few
+markings for the refinement from the prediction, the tracker sweeps the pan
+angle about the tripod centre (tilt, roll and f kept), scoring each angle by
+the share of projected markings with a detected line pixel nearby, refines
+from a clear peak, and restarts the filter from that measurement at the pan
+rate since the last one.
+
 Statuses: "ok" (measured this frame), "tracked" (carried by the filter
 through a frame without an accepted measurement, at most ``max_coast``
 frames), "lost".
@@ -65,6 +72,11 @@ class TrackerConfig:
     accel_pan: float = 4.0  # process noise: angular acceleration (rad/s^2) of pan and tilt
     accel_roll: float = 0.05
     accel_logf: float = 2.0  # zoom acceleration (1/s^2 in log f)
+    sweep_range: float = 0.1  # pan sweep after a failed track: +- this share of the width (0: none) ...
+    sweep_step: float = 0.005  # ... in steps of this share of the width
+    sweep_accept: float = 0.25  # least support share of a swept measurement ...
+    sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
+    sweep_peak: float = 1.2  # its support over the best support half the range away
 
 
 def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
@@ -166,14 +178,16 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
     return best
 
 
-def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
+def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0, max_samples: int = 300) -> float:
+    """Share of the model samples visible through ``cam`` (at most about ``max_samples``
+    of them, evenly taken) with a detected line pixel within ``radius``."""
     from arstream.solve import _visible
 
     inside, px = _visible(cam, model, size)
     n = int(inside.sum())
     if n < 20:
         return 0.0
-    d, _ = index.nearest(px[inside][:: max(n // 300, 1)], radius)
+    d, _ = index.nearest(px[inside][:: max(n // max_samples, 1)], radius)
     return float(np.isfinite(d).mean())
 
 
@@ -213,13 +227,16 @@ class Tracker:
         self._coast = 0
         self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
         self._gated_prev = False  # the previous frame's measurement was gated
+        self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0}
 
     # --- filter ----------------------------------------------------------------
-    def _new_filter(self, z: np.ndarray, Rz: np.ndarray) -> KalmanFilter:
+    def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
+        """A filter started at the measurement ``z`` (pan, tilt, roll, log f) with noise
+        ``Rz``, at rest or moving at ``rate`` (per second, same order)."""
         dt = 1.0 / self.fps
         kf = KalmanFilter(dim_x=8, dim_z=4)
         F1 = np.array([[1.0, dt], [0.0, 1.0]])
@@ -236,6 +253,8 @@ class Tracker:
         )
         kf.x = np.zeros((8, 1))
         kf.x[0::2, 0] = z
+        if rate is not None:
+            kf.x[1::2, 0] = rate
         kf.P = np.diag([Rz[0, 0], 0.5, Rz[1, 1], 0.5, Rz[2, 2], 0.05, Rz[3, 3], 0.5])
         kf.R = Rz
         return kf
@@ -269,6 +288,7 @@ class Tracker:
         self._coast = 0
         self._conf_ref = 1.0
         self._gated_prev = False
+        self._last_z = None
         if not keep_centre:
             self.centre = None
             self._centres.clear()
@@ -362,6 +382,14 @@ class Tracker:
                 if meas.confidence < self.cfg.accept_low or explained_share(meas.camera, lidx, self.size, self.model) < self.cfg.min_explained:
                     meas = None
         source = "track"
+        if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
+            # a pan faster than the motion model (a whip pan): blur leaves few markings
+            # and the prediction falls behind; search the pan angle, which such a move changes
+            meas = self._pan_sweep(pred_cam, lidx)
+            if meas is not None:
+                source = "sweep"
+                self.stats["swept"] += 1
+                self._kf = None  # re-anchored: restart the filter from this measurement
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
             if r is not None and r.confidence >= self.cfg.init_accept:
@@ -399,7 +427,13 @@ class Tracker:
         z = _ptz_vector(meas.camera, centre)
         Rz = self._measurement_noise(meas)
         if self._kf is None:
-            self._kf = self._new_filter(z, Rz)
+            rate = None
+            if source == "sweep" and self._last_z is not None:
+                # moving on at the pace since the last measurement, not from rest
+                rate = z - self._last_z[1]
+                rate[0] = _wrap(rate[0])
+                rate *= self.fps / max(index - self._last_z[0], 1)
+            self._kf = self._new_filter(z, Rz, rate)
             self._kf_id = index
         else:
             kf = self._kf
@@ -427,6 +461,7 @@ class Tracker:
                 kf.update(z, R=Rz)
         self._gated_prev = False
         self._coast = 0
+        self._last_z = (index, z)
         self._conf_ref = meas.confidence if self._conf_ref >= 1.0 else 0.9 * self._conf_ref + 0.1 * meas.confidence
         if self.centre is None:
             # no tripod centre yet: the filter's state (angles about each frame's own,
@@ -434,6 +469,33 @@ class Tracker:
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
         cam = self._camera_from_state(self._kf.x, centre)
         return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
+
+    def _pan_sweep(self, pred: Camera, lidx: LineIndex) -> Refinement | None:
+        """Re-find the camera after a pan the filter did not follow: score pan angles
+        around the prediction ``pred`` (tripod centre fixed; tilt, roll and f kept) by
+        the share of projected markings with a detected line pixel nearby, refine
+        from the best, and accept it only if that peak is clear of the rest and the
+        refinement explains the detected line pixels."""
+        c = self.cfg
+        W = self.size[0]
+        ptz = PTZ(*ptr_from_rotation(pred.R), f=pred.focal)
+        step_px = max(c.sweep_step * W, 1.0)
+        n = int(round(c.sweep_range / c.sweep_step))
+        offsets = np.arange(-n, n + 1)
+        dist = (self._k1_for(pred.focal),) if self.k1 else ()
+        cams = [camera_from_ptz(self.centre, PTZ(ptz.pan + k * step_px / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist) for k in offsets]
+        support = np.array([_support(cam, lidx, self.size, self.model, radius=0.5 * step_px + 1.0, max_samples=150) for cam in cams])
+        k = int(np.argmax(support))
+        away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
+        if support[k] <= 0 or (away.any() and support[k] < c.sweep_peak * support[away].max()):
+            return None
+        try:
+            r = refine_camera(cams[k], lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=(10.0, 4.0, 2.5), max_points=400)
+        except ValueError:
+            return None
+        if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
+            return None
+        return r
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         info["centre"] = np.array(centre, dtype=np.float64)
