@@ -767,22 +767,20 @@ def cameras_from_line_hypotheses(
     half_len = pitch.length / 2
     cams = []
     for side in ("left", "right"):
-        across = [pitch["halfway_line"], pitch[f"penalty_area_{side}_front"], pitch[f"goal_area_{side}_front"], pitch[f"goal_line_{side}"]]
+        across = [pitch[n].line for n in ("halfway_line", f"penalty_area_{side}_front", f"goal_area_{side}_front", f"goal_line_{side}")]
         if side == "left":
             across = across[::-1]
-        along = [pitch["touchline_near"], pitch[f"penalty_area_{side}_near"], pitch[f"goal_area_{side}_near"], pitch[f"goal_area_{side}_far"], pitch[f"penalty_area_{side}_far"], pitch["touchline_far"]]
+        along = [pitch[n].line for n in ("touchline_near", f"penalty_area_{side}_near", f"goal_area_{side}_near", f"goal_area_{side}_far", f"penalty_area_{side}_far", "touchline_far")]
         for na in range(min(len(across_idx), 4), 1, -1):
             for nb in range(min(len(along_idx), 6), 1, -1):
                 if na + nb < 4:
                     continue
-                ia = across_idx[:na]
-                ib = along_idx[:nb]
+                dst = np.array([L[k] for k in across_idx[:na]] + [L[k] for k in along_idx[:nb]])
                 for ma in combinations(range(len(across)), na):
                     for mb in combinations(range(len(along)), nb):
-                        src = [across[m].line for m in ma] + [along[m].line for m in mb]
-                        dst = [L[k] for k in ia] + [L[k] for k in ib]
+                        src = np.array([across[m] for m in ma] + [along[m] for m in mb])
                         try:
-                            Hm = homography_from_lines(np.array(src), np.array(dst))
+                            Hm = homography_from_lines(src, dst)
                             cam = camera_from_homography(Hm, principal_point)
                         except ValueError:
                             continue
