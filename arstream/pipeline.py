@@ -63,6 +63,7 @@ import numpy as np
 
 from arstream.errors import ArstreamError, InputError
 from arstream.estimate import CameraEstimate
+from arstream.imaging import shrink
 from arstream.sink import JsonlWriter, VideoSink
 from arstream.source import Frame, VideoSource, i420_planes
 
@@ -210,12 +211,12 @@ class Analysis:
             if f.yuv is not None and not f.has_image:
                 buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
                 src, dst = i420_planes(f.yuv, f.width, f.height), i420_planes(buf, self.w, self.h)
-                cv2.resize(src[0], (self.w, self.h), dst=dst[0], interpolation=cv2.INTER_AREA)
+                shrink(src[0], (self.w, self.h), dst=dst[0])
                 for k in (1, 2):
-                    cv2.resize(src[k], (self.w // 2, self.h // 2), dst=dst[k], interpolation=cv2.INTER_AREA)
+                    shrink(src[k], (self.w // 2, self.h // 2), dst=dst[k])
                 item.analysis = cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420)
             else:
-                item.analysis = cv2.resize(f.image, (self.w, self.h), interpolation=cv2.INTER_AREA)
+                item.analysis = shrink(f.image, (self.w, self.h))
         return item.analysis
 
     def camera(self, cam):

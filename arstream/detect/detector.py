@@ -7,6 +7,7 @@ import time
 import cv2
 import numpy as np
 
+from arstream.imaging import shrink
 from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
@@ -212,7 +213,7 @@ class Detector:
         self.frames += 1
         t0 = time.perf_counter()
         w, h = self.work_size
-        small = cv2.resize(image, (w, h), dst=self._small, interpolation=cv2.INTER_AREA)
+        small = shrink(image, (w, h), dst=self._small)
         tiny = cv2.resize(small, self.tiny_size, dst=self._tiny, interpolation=cv2.INTER_LINEAR)
         g = grass_masks(tiny, self.grass_model, min_fraction=self.min_grass, bufs=self._gbufs)
         t1 = time.perf_counter()
