@@ -416,7 +416,7 @@ def robust_lm(fun, jac, x0: np.ndarray, *, f_scale: float = 1.0, max_iter: int =
         if not improved:
             break
         J = jac(x)
-        if np.linalg.norm(dx) < tol * (np.linalg.norm(x) + tol) or cost_prev - cost < 1e-6 * cost_prev:
+        if np.linalg.norm(dx) < tol * (np.linalg.norm(x) + tol) or cost_prev - cost < 1e-4 * cost_prev:
             break
     return LMResult(x=x, fun=r, jac=J, cost=cost, iterations=it)
 
