@@ -46,7 +46,7 @@ def _sample(small: np.ndarray, rect, size) -> np.ndarray:
     h, w = small.shape[:2]
     cols = np.minimum(((np.arange(x0, x1) + 0.5) * (w / W)).astype(np.intp), w - 1)
     rows = np.minimum(((np.arange(y0, y1) + 0.5) * (h / H)).astype(np.intp), h - 1)
-    return small[rows[:, None], cols[None, :]]
+    return small[rows][:, cols]  # two 1-D gathers: several times faster than one 2-D fancy index
 
 
 def refine_matte(out: np.ndarray, rects, region_bgr, pitch: np.ndarray, *, keep: np.ndarray | None = None, keep_grow: int = 0, **green) -> np.ndarray:
