@@ -267,3 +267,30 @@ def test_tracker_keeps_up_with_a_whip_pan():
     errors, stats = whip_pan_errors(TrackerConfig(sweep_range=0.0))
     assert stats["swept"] == 0
     assert errors.max() > 100.0
+
+
+@pytest.mark.parametrize("preset", ["wide", "penalty"])
+def test_pan_sweep_finds_the_pan_or_nothing(preset):
+    # from predictions off in pan only, within the sweep's range (+-10 % of the
+    # width) the sweep finds the camera; beyond it, it may find nothing, but never
+    # a wrong camera (penalty views: many parallel lines a pan could confuse)
+    from arstream.evaluate import frame_error
+
+    clip = SynthClip(preset, seed=3, frames=250)
+    tr = Tracker(*SIZE)
+    X = PITCH.sample_points(1.0)
+    found = 0
+    for i in range(0, 250, 50):
+        cam = clip.camera(i)
+        c, p = ptz_from_camera(cam)
+        tr.centre = c
+        index = LineIndex(truth_detections(cam, seed=i).line_points)
+        for off, within in ((-100, True), (-45, True), (30, True), (60, True), (-250, False), (200, False)):
+            pred = camera_from_ptz(c, PTZ(p.pan + off / p.f, p.tilt, p.roll, p.f), cam.K[:2, 2], dist=cam.dist)
+            r = tr._pan_sweep(pred, index)
+            if r is None:
+                assert not within, (i, off)
+                continue
+            found += 1
+            assert frame_error(cam, r.camera, SIZE, X, PITCH.symmetries).worst < 2.0, (i, off)
+    assert found >= 20
