@@ -46,6 +46,7 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
+from arstream.imaging import shrink
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
@@ -341,8 +342,10 @@ class Tracker:
     def _is_cut(self, image) -> bool:
         if image is None:
             return False
-        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        thumb = cv2.resize(gray, (64, 36), interpolation=cv2.INTER_AREA).astype(np.float32)
+        thumb = shrink(image, (min(64, image.shape[1]), min(36, image.shape[0])))
+        if thumb.ndim == 3:
+            thumb = cv2.cvtColor(thumb, cv2.COLOR_BGR2GRAY)
+        thumb = thumb.astype(np.float32)
         prev, self._prev_thumb = self._prev_thumb, thumb
         return prev is not None and float(np.mean(np.abs(thumb - prev))) > self.cfg.cut_threshold
 
