@@ -26,8 +26,10 @@ Whip pans: when the pan outruns the motion model and blur leaves too few
 markings for the refinement from the prediction, the tracker sweeps the pan
 angle about the tripod centre (tilt, roll and f kept), scoring each angle by
 the share of projected markings with a detected line pixel nearby, refines
-from a clear peak, and restarts the filter from that measurement at the pan
-rate since the last one.
+from a clear peak, sets the pan where the projected markings lie on the
+brightest structure across the rows (the smeared bands the ridge detector
+misses), and restarts the filter from that measurement at the pan rate since
+the last one.
 
 Statuses: "ok" (measured this frame), "tracked" (carried by the filter
 through a frame without an accepted measurement, at most ``max_coast``
@@ -37,7 +39,7 @@ frames), "lost".
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -78,6 +80,7 @@ class TrackerConfig:
     sweep_accept: float = 0.25  # least support share of a swept measurement ...
     sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
     sweep_peak: float = 1.2  # its support over the best support half the range away
+    sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
 
 
 def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
@@ -190,6 +193,14 @@ def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: f
         return 0.0
     d, _ = index.nearest(px[inside][:: max(n // max_samples, 1)], radius)
     return float(np.isfinite(d).mean())
+
+
+def _visible_samples(cam: Camera, model: ModelSamples, size) -> tuple[np.ndarray, np.ndarray]:
+    """(inside mask (N,), pixels (M, 2)) of the model samples in view through ``cam``."""
+    from arstream.solve import _visible
+
+    inside, px = _visible(cam, model, size)
+    return inside, px[inside]
 
 
 class Tracker:
@@ -388,7 +399,7 @@ class Tracker:
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
             # and the prediction falls behind; search the pan angle, which such a move changes
-            meas = self._pan_sweep(pred_cam, lidx)
+            meas = self._pan_sweep(pred_cam, lidx, image)
             if meas is not None:
                 source = "sweep"
                 self.stats["swept"] += 1
@@ -473,12 +484,13 @@ class Tracker:
         cam = self._camera_from_state(self._kf.x, centre)
         return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
 
-    def _pan_sweep(self, pred: Camera, lidx: LineIndex) -> Refinement | None:
+    def _pan_sweep(self, pred: Camera, lidx: LineIndex, image: np.ndarray | None = None) -> Refinement | None:
         """Re-find the camera after a pan the filter did not follow: score pan angles
         around the prediction ``pred`` (tripod centre fixed; tilt, roll and f kept) by
         the share of projected markings with a detected line pixel nearby, refine
         from the best, and accept it only if that peak is clear of the rest and the
-        refinement explains the detected line pixels."""
+        refinement explains the detected line pixels. With the frame (``image``,
+        BGR or grey) the pan is then set by :meth:`_pan_by_brightness`."""
         c = self.cfg
         W = self.size[0]
         ptz = PTZ(*ptr_from_rotation(pred.R), f=pred.focal)
@@ -498,7 +510,47 @@ class Tracker:
             return None
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
             return None
-        return r
+        return self._pan_by_brightness(r, image) if image is not None else r
+
+    def _pan_by_brightness(self, r: Refinement, image: np.ndarray) -> Refinement:
+        """Set the pan of a swept measurement ``r`` where the projected markings lie on
+        the brightest structure across the image rows.
+
+        In a whip pan the markings across the motion (the halfway line, the sides
+        of the centre circle) are smeared into wide faint bands that the ridge
+        detector misses: the line pixels fix tilt, roll and zoom (lines along
+        the motion stay sharp) but leave the pan loose by several pixels. A band
+        is still brighter than the grass beside it, and centred on the marking's
+        mid-exposure position: the mean of the frame's brightness above its
+        running horizontal mean (61 px), taken along the projected markings,
+        peaks at the right pan. Pans within ``sweep_fine`` of the width around
+        ``r`` are scored a pixel apart; the peak is refined by a parabola."""
+        c = self.cfg
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        g = gray.astype(np.float32)
+        bright = cv2.subtract(g, cv2.blur(g, (61, 1)))
+        np.maximum(bright, 0.0, out=bright)
+        ptz = PTZ(*ptr_from_rotation(r.camera.R), f=r.camera.focal)
+        dist = r.camera.dist
+        n = max(int(round(c.sweep_fine * self.size[0])), 1)
+        offsets = np.arange(-n, n + 1, dtype=np.float64)
+
+        def camera(dx: float) -> Camera:
+            return camera_from_ptz(self.centre, PTZ(ptz.pan + dx / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
+
+        score = np.zeros(len(offsets))
+        for j, dx in enumerate(offsets):
+            inside, px = _visible_samples(camera(dx), self.model, self.size)
+            if len(px) >= 20:
+                q = px.astype(np.float32)
+                score[j] = float(cv2.remap(bright, q[None, :, 0], q[None, :, 1], cv2.INTER_LINEAR).mean())
+        k = int(np.argmax(score))
+        if not 0 < k < len(score) - 1 or score[k] <= 0:
+            return r  # no peak inside the window: keep the line pixels' pan
+        a, b, d = score[k - 1], score[k], score[k + 1]
+        den = a - 2 * b + d
+        dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
+        return replace(r, camera=camera(dx))
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         info["centre"] = np.array(centre, dtype=np.float64)

@@ -257,12 +257,11 @@ def whip_pan_errors(config=None):
 
 def test_tracker_keeps_up_with_a_whip_pan():
     # blur hides most markings and the pan outruns the constant-velocity model; the
-    # pan sweep re-finds the camera. Blur leaves the sweep a broad peak, so single
-    # frames may land some pixels off, but the track is never lost
+    # pan sweep re-finds the camera, its pan set by the smeared bands' brightness
     errors, stats = whip_pan_errors()
     assert stats["swept"] >= 2
-    assert np.all(errors < 25.0), errors.round(1)
-    assert np.median(errors) < 2.5
+    assert np.all(errors < 8.0), errors.round(1)
+    assert np.median(errors) < 2.0
     # without the sweep the filter coasts behind the pan, drifting past 100 px
     errors, stats = whip_pan_errors(TrackerConfig(sweep_range=0.0))
     assert stats["swept"] == 0
@@ -294,3 +293,30 @@ def test_pan_sweep_finds_the_pan_or_nothing(preset):
             found += 1
             assert frame_error(cam, r.camera, SIZE, X, PITCH.symmetries).worst < 2.0, (i, off)
     assert found >= 20
+
+
+def test_pan_by_brightness_centres_the_smeared_bands():
+    # in the whip pan the halfway line is a band some 20 px wide that the ridge
+    # detector misses; from a camera off in pan only, the brightness along the
+    # projected markings brings the pan back to within a pixel (analysis size)
+    import cv2
+
+    from arstream.pipeline import Analysis
+    from arstream.solve import Refinement
+
+    clip = SynthClip("hard", seed=11, frames=250, size=SIZE)
+    an = Analysis(*SIZE, 640)
+    tr = Tracker(an.w, an.h)
+    S = np.linalg.inv(an.S)
+    for i in (157, 159, 161):
+        small = cv2.resize(clip.render(i), (an.w, an.h), interpolation=cv2.INTER_AREA)
+        cam = clip.camera(i)
+        cam = type(cam)(K=S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)  # analysis pixels
+        c, p = ptz_from_camera(cam)
+        tr.centre, tr.pp = c, cam.K[:2, 2]
+        for off in (-10.0, 6.0, 12.0):
+            off_cam = camera_from_ptz(c, PTZ(p.pan + off / p.f, p.tilt, p.roll, p.f), cam.K[:2, 2], dist=cam.dist)
+            r = tr._pan_by_brightness(Refinement(off_cam, 0.3, 1.0, 100, 50, np.eye(4)), small)
+            _, q = ptz_from_camera(r.camera)
+            assert abs(q.pan - p.pan) * p.f < 1.0, (i, off)
+            assert (q.tilt, q.roll, q.f) == pytest.approx((p.tilt, p.roll, p.f), abs=1e-9)
