@@ -195,12 +195,12 @@ def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: f
     return float(np.isfinite(d).mean())
 
 
-def _visible_samples(cam: Camera, model: ModelSamples, size) -> tuple[np.ndarray, np.ndarray]:
-    """(inside mask (N,), pixels (M, 2)) of the model samples in view through ``cam``."""
+def _pixels_in_view(cam: Camera, model: ModelSamples, size) -> np.ndarray:
+    """(M, 2) pixels of the model samples in view through ``cam``."""
     from arstream.solve import _visible
 
     inside, px = _visible(cam, model, size)
-    return inside, px[inside]
+    return px[inside]
 
 
 class Tracker:
@@ -540,7 +540,7 @@ class Tracker:
 
         score = np.zeros(len(offsets))
         for j, dx in enumerate(offsets):
-            inside, px = _visible_samples(camera(dx), self.model, self.size)
+            px = _pixels_in_view(camera(dx), self.model, self.size)
             if len(px) >= 20:
                 q = px.astype(np.float32)
                 score[j] = float(cv2.remap(bright, q[None, :, 0], q[None, :, 1], cv2.INTER_LINEAR).mean())
