@@ -57,7 +57,7 @@ detection and solving, per 720p frame (CPU of each stage's own thread,
 camera is tracked: lines and the ellipse search run lazily, when the tracker
 re-initialises), tracking about 5 ms (one short refinement round from the
 filter's prediction), rendering and compositing about 3 ms; plus the
-one-off initialisation at the start of a shot (0.1-0.8 s). Decode + x264
+one-off initialisation at the start of a shot (0.05-0.2 s). Decode + x264
 `veryfast` alone take about 20 ms of CPU per 720p frame (43 at 1080p): 60
 fps on two cores leaves about 13 ms per frame for everything else at 720p,
 and the pipeline spends about 20. Detection runs on a worker thread one

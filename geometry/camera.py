@@ -39,6 +39,7 @@ __all__ = [
     "P_from_KRt",
     "KRt_from_P",
     "camera_from_homography",
+    "focal_from_homographies",
     "iac",
     "K_from_iac",
     "rotation_from_ptr",
@@ -315,6 +316,33 @@ def K_from_iac(omega) -> np.ndarray:
     return K / K[2, 2]
 
 
+def _inverse_focal_sq(H: np.ndarray, cx: float, cy: float, aspect: float) -> np.ndarray:
+    """``w = 1 / f^2`` (K,) of pitch-to-image homographies H (K, 3, 3) from the two
+    orthogonality constraints of ``r1``, ``r2`` on the IAC ``diag(w, w, 1)`` (least
+    squares); NaN where unobservable."""
+    T = np.array([[1.0, 0.0, -cx], [0.0, 1.0 / aspect, -cy / aspect], [0.0, 0.0, 1.0]])
+    G = T @ H
+    G = G / np.linalg.norm(G, axis=(1, 2), keepdims=True)
+    g1, g2 = G[:, :, 0], G[:, :, 1]
+    # omega = diag(w, w, 1):  g1^T omega g2 = 0, g1^T omega g1 = g2^T omega g2
+    a1, b1 = g1[:, 0] * g2[:, 0] + g1[:, 1] * g2[:, 1], g1[:, 2] * g2[:, 2]
+    a2, b2 = g1[:, 0] ** 2 + g1[:, 1] ** 2 - g2[:, 0] ** 2 - g2[:, 1] ** 2, g1[:, 2] ** 2 - g2[:, 2] ** 2
+    den = a1 * a1 + a2 * a2
+    ok = den >= 1e-300
+    return np.where(ok, -(a1 * b1 + a2 * b2) / np.where(ok, den, 1.0), np.nan)
+
+
+def focal_from_homographies(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> np.ndarray:
+    """Focal lengths (K,) (pixels) that :func:`camera_from_homography` would find for
+    homographies (K, 3, 3), computed at once; NaN where none is positive. A cheap
+    screen before decomposing many hypotheses."""
+    H = np.asarray(H_img_from_pitch, dtype=np.float64).reshape(-1, 3, 3)
+    cx, cy = np.asarray(principal_point, dtype=np.float64)
+    w = _inverse_focal_sq(H, cx, cy, aspect)
+    with np.errstate(invalid="ignore"):
+        return np.where(w > 0, 1.0 / np.sqrt(np.where(w > 0, w, 1.0)), np.nan)
+
+
 def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> Camera:
     """Decompose a pitch-to-image homography into ``K``, ``R``, ``t``.
 
@@ -345,17 +373,9 @@ def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float =
     if s[-1] < 1e-10 * s[0]:
         raise ValueError("homography is singular")
     cx, cy = np.asarray(principal_point, dtype=np.float64)
-    T = np.array([[1.0, 0.0, -cx], [0.0, 1.0 / aspect, -cy / aspect], [0.0, 0.0, 1.0]])
-    G = T @ H
-    G = G / np.linalg.norm(G)
-    g1, g2 = G[:, 0], G[:, 1]
-    # omega = diag(w, w, 1), w = 1/f^2:  g1^T omega g2 = 0, g1^T omega g1 = g2^T omega g2
-    a1, b1 = g1[0] * g2[0] + g1[1] * g2[1], g1[2] * g2[2]
-    a2, b2 = g1[0] ** 2 + g1[1] ** 2 - g2[0] ** 2 - g2[1] ** 2, g1[2] ** 2 - g2[2] ** 2
-    den = a1 * a1 + a2 * a2
-    if den < 1e-300:
+    w = _inverse_focal_sq(H[None], cx, cy, aspect)[0]
+    if np.isnan(w):
         raise ValueError("focal length unobservable from this homography")
-    w = -(a1 * b1 + a2 * b2) / den
     if not w > 0:
         raise ValueError("no positive focal length fits this homography (fronto-parallel or inconsistent)")
     f = 1.0 / np.sqrt(w)

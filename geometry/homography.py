@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from geometry.conics import normalize_conic
-from geometry.lines import hartley_normalization, normalize_line
+from geometry.lines import _EPS, hartley_normalization, normalize_line
 
 __all__ = [
     "homography_from_points",
     "homography_from_lines",
+    "homographies_from_lines",
     "normalize_homography",
     "transfer_points",
     "transfer_lines",
@@ -54,19 +55,24 @@ def normalize_homography(H) -> np.ndarray:
 def _dlt(X_src: np.ndarray, X_dst: np.ndarray) -> np.ndarray:
     """Homogeneous DLT on (N, 3) -> (N, 3) correspondences: H (3, 3) and the 9 singular
     values of the design matrix (zero-padded), so ``s[7]`` tells a second null vector."""
-    n = len(X_src)
-    A = np.zeros((2 * n, 9))
-    x, y, w = X_src[:, 0:1], X_src[:, 1:2], X_src[:, 2:3]
-    xd, yd, wd = X_dst[:, 0:1], X_dst[:, 1:2], X_dst[:, 2:3]
-    Xs = np.hstack([x, y, w])
-    A[0::2, 3:6] = -wd * Xs
-    A[0::2, 6:9] = yd * Xs
-    A[1::2, 0:3] = wd * Xs
-    A[1::2, 6:9] = -xd * Xs
-    _, s, Vt = np.linalg.svd(A, full_matrices=len(A) < 9)  # thin SVD: A is 2N x 9
-    s9 = np.zeros(9)
-    s9[: len(s)] = s
-    return Vt[-1].reshape(3, 3), s9
+    H, s = _dlt_batch(X_src[None], X_dst[None])
+    return H[0], s[0]
+
+
+def _dlt_batch(X_src: np.ndarray, X_dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_dlt` for K problems at once: (K, N, 3) each -> (K, 3, 3), (K, 9)."""
+    k, n = X_src.shape[:2]
+    A = np.zeros((k, 2 * n, 9))
+    Xs = X_src
+    xd, yd, wd = X_dst[..., 0:1], X_dst[..., 1:2], X_dst[..., 2:3]
+    A[:, 0::2, 3:6] = -wd * Xs
+    A[:, 0::2, 6:9] = yd * Xs
+    A[:, 1::2, 0:3] = wd * Xs
+    A[:, 1::2, 6:9] = -xd * Xs
+    _, s, Vt = np.linalg.svd(A, full_matrices=2 * n < 9)  # thin SVD: A is 2N x 9
+    s9 = np.zeros((k, 9))
+    s9[:, : s.shape[1]] = s
+    return Vt[:, -1].reshape(k, 3, 3), s9
 
 
 def _as_pts(p, name):
@@ -119,19 +125,78 @@ def homography_from_points(src, dst) -> np.ndarray:
 
 
 def _line_conditioning(L: np.ndarray) -> np.ndarray:
-    """Similarity T (3, 3) that conditions lines (N, 3): Hartley on the feet of the
-    perpendiculars from the origin; identity if they coincide."""
-    feet = []
-    for l in L:
-        n2 = l[0] ** 2 + l[1] ** 2
-        if n2 > 1e-24:
-            feet.append(-l[2] * l[:2] / n2)
-    if len(feet) < 2:
-        return np.eye(3)
-    try:
-        return hartley_normalization(np.array(feet))
-    except ValueError:
-        return np.eye(3)
+    """Similarities T (K, 3, 3) that condition K sets of lines (K, N, 3): Hartley on
+    the feet of the perpendiculars from the origin; identity where fewer than two
+    feet exist or they coincide."""
+    n2 = L[..., 0] ** 2 + L[..., 1] ** 2
+    has = n2 > 1e-24
+    feet = -L[..., 2:3] * L[..., :2] / np.where(has, n2, 1.0)[..., None]
+    cnt = has.sum(axis=1)
+    m = np.maximum(cnt, 1)[:, None]
+    c = (feet * has[..., None]).sum(axis=1) / m
+    d = (np.sqrt(((feet - c[:, None]) ** 2).sum(axis=2)) * has).sum(axis=1) / m[:, 0]
+    good = (cnt >= 2) & (d >= _EPS * np.maximum(1.0, np.abs(c).max(axis=1)))
+    sc = np.where(good, np.sqrt(2.0) / np.where(good, d, 1.0), 1.0)
+    c = np.where(good[:, None], c, 0.0)
+    T = np.zeros((len(L), 3, 3))
+    T[:, 0, 0] = T[:, 1, 1] = sc
+    T[:, :2, 2] = -sc[:, None] * c
+    T[:, 2, 2] = 1.0
+    return T
+
+
+def _unit_lines(L: np.ndarray) -> np.ndarray:
+    """Lines (..., 3) scaled to ``a^2 + b^2 = 1`` (the line at infinity to unit norm), as
+    :func:`geometry.lines.normalize_line`; zero vectors stay zero."""
+    n = np.hypot(L[..., 0], L[..., 1])
+    full = np.linalg.norm(L, axis=-1)
+    at_inf = n < _EPS * np.maximum(1.0, np.abs(L[..., 2]))
+    div = np.where(at_inf, full, n)
+    return L / np.where(div > 0, div, 1.0)[..., None]
+
+
+def homographies_from_lines(src_lines, dst_lines) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`homography_from_lines` for K sets of line correspondences at once
+    (one batched SVD: for the many assignment hypotheses of a line initialiser).
+
+    Parameters
+    ----------
+    src_lines : (K, N, 3) array_like, N >= 4, lines in the source frame
+    dst_lines : (K, N, 3) or (N, 3) array_like, the same lines in the destination
+        frame (one set shared by all K)
+
+    Returns
+    -------
+    (H (K, 3, 3) float64 ``H_dst_from_src`` (unit norm, ``H[2, 2] >= 0``),
+    ok (K,) bool): where ``ok`` is False the set is degenerate (concurrent or
+    repeated lines) and ``H`` is meaningless.
+    """
+    Ls = _unit_lines(np.asarray(src_lines, dtype=np.float64))
+    Ld = _unit_lines(np.broadcast_to(np.asarray(dst_lines, dtype=np.float64), Ls.shape))
+    if Ls.ndim != 3 or Ls.shape[2] != 3:
+        raise ValueError(f"line arrays must be (K, N, 3), got {Ls.shape}")
+    if Ls.shape[1] < 4:
+        raise ValueError(f"a homography needs at least 4 line correspondences, got {Ls.shape[1]}")
+    Ts, Td = _line_conditioning(Ls), _line_conditioning(Ld)
+    # lines in conditioned frames: l_n = T^-T l, i.e. rows l @ T^-1
+    Lsn = np.einsum("kni,kij->knj", Ls, np.linalg.inv(Ts))
+    Ldn = np.einsum("kni,kij->knj", Ld, np.linalg.inv(Td))
+    Lsn /= np.linalg.norm(Lsn, axis=2, keepdims=True)
+    Ldn /= np.linalg.norm(Ldn, axis=2, keepdims=True)
+    Gn, sv = _dlt_batch(Lsn, Ldn)  # l_dst_n ~ Gn l_src_n, Gn = Hn^-T
+    ok = sv[:, 7] >= 1e-8 * sv[:, 0]
+    g = np.linalg.svd(Gn, compute_uv=False)
+    ok &= g[:, 2] > 1e-12 * g[:, 0]
+    Gn[~ok] = np.eye(3)
+    Hn = np.transpose(np.linalg.inv(Gn), (0, 2, 1))
+    H = np.linalg.solve(Td, Hn @ Ts)
+    h = np.linalg.svd(H, compute_uv=False)
+    ok &= h[:, 2] >= 1e-12 * h[:, 0]
+    H /= np.linalg.norm(H, axis=(1, 2), keepdims=True)
+    flat = H.reshape(len(H), 9)
+    ref = np.where(np.abs(H[:, 2, 2]) > 1e-12, H[:, 2, 2], flat[np.arange(len(H)), np.argmax(np.abs(flat), axis=1)])
+    H *= np.where(ref < 0, -1.0, 1.0)[:, None, None]
+    return H, ok
 
 
 def homography_from_lines(src_lines, dst_lines) -> np.ndarray:
@@ -161,23 +226,12 @@ def homography_from_lines(src_lines, dst_lines) -> np.ndarray:
         raise ValueError(f"line arrays must both be (N, 3), got {Ls.shape} and {Ld.shape}")
     if len(Ls) < 4:
         raise ValueError(f"a homography needs at least 4 line correspondences, got {len(Ls)}")
-    Ls = np.array([normalize_line(l) for l in Ls])
+    Ls = np.array([normalize_line(l) for l in Ls])  # (raises on a zero vector)
     Ld = np.array([normalize_line(l) for l in Ld])
-    Ts, Td = _line_conditioning(Ls), _line_conditioning(Ld)
-    # lines in conditioned frames: l_n = T^-T l
-    Lsn = Ls @ np.linalg.inv(Ts)
-    Ldn = Ld @ np.linalg.inv(Td)
-    Lsn /= np.linalg.norm(Lsn, axis=1, keepdims=True)
-    Ldn /= np.linalg.norm(Ldn, axis=1, keepdims=True)
-    Gn, s = _dlt(Lsn, Ldn)  # l_dst_n ~ Gn l_src_n, Gn = Hn^-T
-    if s[7] < 1e-8 * s[0]:
+    H, ok = homographies_from_lines(Ls[None], Ld[None])
+    if not ok[0]:
         raise ValueError("degenerate lines (concurrent or repeated): homography undefined")
-    try:
-        Hn = np.linalg.inv(Gn).T
-    except np.linalg.LinAlgError:
-        raise ValueError("degenerate lines (concurrent or repeated): homography undefined") from None
-    H = np.linalg.solve(Td, Hn @ Ts)
-    return normalize_homography(H)
+    return H[0]
 
 
 def transfer_points(H_dst_from_src, pts) -> np.ndarray:

@@ -53,6 +53,21 @@ def test_homography_decomposition_round_trip(seed):
     assert np.allclose(cam2.center, cam.center, atol=1e-6)
 
 
+def test_focal_from_homographies_screens_as_the_decomposition_does():
+    rng = np.random.default_rng(5)
+    pp = (640.0, 360.0)
+    cams = [broadcast_camera(rng, pp) for _ in range(6)]
+    H = np.array([c.H_img_from_pitch * rng.uniform(0.1, 10) for c in cams])
+    # fronto-parallel (f unobservable) and a mirrored, focal-less one
+    H = np.concatenate([H, [np.array([[1000.0, 0, 640], [0, 1000.0, 360], [0, 0, 1.0]]), np.diag([1.0, -1.0, 1.0]) @ np.diag([1.0, 1.0, 1e-3])]])
+    f = gcam.focal_from_homographies(H, pp)
+    assert np.allclose(f[:6], [c.focal for c in cams], rtol=1e-8)
+    assert np.all(np.isnan(f[6:]))
+    for Hk in H[6:]:
+        with pytest.raises(ValueError, match="focal"):
+            gcam.camera_from_homography(Hk, pp)
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_project_backproject_round_trip(seed):
     rng = np.random.default_rng(seed)

@@ -92,6 +92,29 @@ def test_homography_from_points_and_lines(seed):
     assert np.max(np.abs(np.einsum("ij,jk,ik->i", X, Cn, X))) < 1e-9
 
 
+def test_batched_line_homographies_match_one_by_one():
+    rng = np.random.default_rng(3)
+    src, dst, want = [], [], []
+    for _ in range(6):
+        H = random_homography(rng)
+        pts = rng.uniform(0, 1000, (6, 2))
+        L = np.array([np.cross([*pts[i], 1.0], [*pts[i + 1], 1.0]) for i in range(5)])
+        src.append(L)
+        dst.append(gh.transfer_lines(H, L))
+        want.append(gh.homography_from_lines(L, dst[-1]))
+    # a degenerate member: five lines through one point
+    src.append(np.array([[1.0, 0, 0], [0, 1.0, 0], [1.0, 1.0, 0], [1.0, -1.0, 0], [2.0, 1.0, 0]]))
+    dst.append(src[-1].copy())
+    H, ok = gh.homographies_from_lines(np.array(src), np.array(dst))
+    assert ok.tolist() == [True] * 6 + [False]
+    assert np.allclose(H[:6], np.array(want), atol=1e-10)
+    # one destination set shared by all
+    H2, ok2 = gh.homographies_from_lines(np.array(src[:1] * 3), dst[0])
+    assert ok2.all() and np.allclose(H2, want[0], atol=1e-10)
+    with pytest.raises(ValueError, match="at least 4"):
+        gh.homographies_from_lines(np.zeros((2, 3, 3)), np.zeros((3, 3)))
+
+
 def test_homography_noise_is_bounded():
     rng = np.random.default_rng(1)
     H = random_homography(rng)
