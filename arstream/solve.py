@@ -35,7 +35,7 @@ import numpy as np
 import scipy.optimize
 from scipy.spatial import cKDTree
 
-from geometry.camera import Camera, camera_from_homography, focal_from_homographies, intrinsic_matrix
+from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
 from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
@@ -779,16 +779,10 @@ def cameras_from_line_hypotheses(
                 src = np.array([[across[m] for m in ma] + [along[m] for m in mb] for ma in combinations(range(len(across)), na) for mb in combinations(range(len(along)), nb)])
                 # all assignments at once; only those with a plausible focal length decomposed
                 Hs, ok = homographies_from_lines(src, dst)
-                with np.errstate(invalid="ignore"):
-                    f = focal_from_homographies(Hs, principal_point)
-                    ok &= (f > 0.3 * W) & (f < 12 * W)
-                for Hm in Hs[ok]:
-                    try:
-                        cam = camera_from_homography(Hm, principal_point)
-                    except ValueError:
-                        continue
-                    C = cam.center
-                    if not (C[1] < -pitch.width / 2 - 3 and 3 < C[2] < 80 and abs(C[0]) < half_len and 0.3 * W < cam.focal < 12 * W):
-                        continue
-                    cams.append(cam)
+                poses = decompose_homographies(Hs[ok], principal_point)
+                C, f = poses.centre, poses.focal
+                # valid, above the pitch behind the near touchline, a plausible focal length
+                good = poses.ok & (C[:, 1] < -pitch.width / 2 - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < half_len) & (f > 0.3 * W) & (f < 12 * W)
+                for k in np.flatnonzero(good):
+                    cams.append(Camera(K=intrinsic_matrix(float(f[k]), *principal_point), R=poses.R[k], t=poses.t[k]))
     return cams

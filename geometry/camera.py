@@ -39,7 +39,8 @@ __all__ = [
     "P_from_KRt",
     "KRt_from_P",
     "camera_from_homography",
-    "focal_from_homographies",
+    "HomographyPoses",
+    "decompose_homographies",
     "iac",
     "K_from_iac",
     "rotation_from_ptr",
@@ -332,15 +333,74 @@ def _inverse_focal_sq(H: np.ndarray, cx: float, cy: float, aspect: float) -> np.
     return np.where(ok, -(a1 * b1 + a2 * b2) / np.where(ok, den, 1.0), np.nan)
 
 
-def focal_from_homographies(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> np.ndarray:
-    """Focal lengths (K,) (pixels) that :func:`camera_from_homography` would find for
-    homographies (K, 3, 3), computed at once; NaN where none is positive. A cheap
-    screen before decomposing many hypotheses."""
+_HOMOGRAPHY_FAILURES = (
+    None,
+    "homography is singular",
+    "focal length unobservable from this homography",
+    "no positive focal length fits this homography (fronto-parallel or inconsistent)",
+    "homography is a mirror image: camera would be below the pitch",
+    "camera below the pitch: this homography does not see the pitch from above",
+)
+
+
+@dataclass(frozen=True)
+class HomographyPoses:
+    """Cameras of K pitch-to-image homographies (:func:`decompose_homographies`).
+
+    Attributes
+    ----------
+    focal : (K,) pixels (1 where undefined)
+    R : (K, 3, 3) ``R_cam_from_world``
+    t : (K, 3)
+    centre : (K, 3) camera centres, pitch frame (metres)
+    status : (K,) int, 0 for a valid camera, else the index of the failure in
+        ``_HOMOGRAPHY_FAILURES`` (singular, unobservable or no positive focal
+        length, mirror image, camera below the pitch)
+    """
+
+    focal: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    centre: np.ndarray
+    status: np.ndarray
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(K,) bool: the valid cameras."""
+        return self.status == 0
+
+
+def decompose_homographies(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> HomographyPoses:
+    """:func:`camera_from_homography` for K homographies (K, 3, 3) at once: a
+    failure is a status per homography, not an exception (for screening the
+    many hypotheses of a line initialiser)."""
     H = np.asarray(H_img_from_pitch, dtype=np.float64).reshape(-1, 3, 3)
+    k = len(H)
     cx, cy = np.asarray(principal_point, dtype=np.float64)
+    status = np.zeros(k, np.int64)
+    sv = np.linalg.svd(H, compute_uv=False)
+    status[sv[:, -1] < 1e-10 * sv[:, 0]] = 1
     w = _inverse_focal_sq(H, cx, cy, aspect)
+    status[(status == 0) & np.isnan(w)] = 2
     with np.errstate(invalid="ignore"):
-        return np.where(w > 0, 1.0 / np.sqrt(np.where(w > 0, w, 1.0)), np.nan)
+        status[(status == 0) & ~(w > 0)] = 3
+    f = np.where(status == 0, 1.0 / np.sqrt(np.where(status == 0, w, 1.0)), 1.0)
+    # [r1 r2 t] = K^-1 H / lambda
+    M = np.empty_like(H)
+    M[:, 0] = (H[:, 0] - cx * H[:, 2]) / f[:, None]
+    M[:, 1] = (H[:, 1] - cy * H[:, 2]) / (aspect * f[:, None])
+    M[:, 2] = H[:, 2]
+    lam = 0.5 * (np.linalg.norm(M[:, :, 0], axis=1) + np.linalg.norm(M[:, :, 1], axis=1))
+    M /= np.where(lam > 0, lam, 1.0)[:, None, None]
+    M *= np.where(M[:, 2, 2] < 0, -1.0, 1.0)[:, None, None]
+    r1, r2, t = M[:, :, 0], M[:, :, 1], M[:, :, 2]
+    Rm = np.stack([r1, r2, np.cross(r1, r2)], axis=2)
+    U, _, Vt = np.linalg.svd(Rm)
+    R = U @ Vt
+    status[(status == 0) & (np.linalg.det(R) < 0)] = 4
+    centre = -np.einsum("kji,kj->ki", R, t)  # -R^T t
+    status[(status == 0) & ~(centre[:, 2] > 0)] = 5
+    return HomographyPoses(focal=f, R=R, t=np.ascontiguousarray(t), centre=centre, status=status)
 
 
 def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float = 1.0) -> Camera:
@@ -369,32 +429,11 @@ def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float =
     H = np.asarray(H_img_from_pitch, dtype=np.float64)
     if H.shape != (3, 3) or not np.all(np.isfinite(H)):
         raise ValueError("H_img_from_pitch must be a finite 3x3 matrix")
-    s = np.linalg.svd(H, compute_uv=False)
-    if s[-1] < 1e-10 * s[0]:
-        raise ValueError("homography is singular")
+    poses = decompose_homographies(H[None], principal_point, aspect=aspect)
+    if poses.status[0]:
+        raise ValueError(_HOMOGRAPHY_FAILURES[poses.status[0]])
     cx, cy = np.asarray(principal_point, dtype=np.float64)
-    w = _inverse_focal_sq(H[None], cx, cy, aspect)[0]
-    if np.isnan(w):
-        raise ValueError("focal length unobservable from this homography")
-    if not w > 0:
-        raise ValueError("no positive focal length fits this homography (fronto-parallel or inconsistent)")
-    f = 1.0 / np.sqrt(w)
-    K = intrinsic_matrix(f, cx, cy, aspect)
-    M = np.linalg.solve(K, H)
-    lam = 0.5 * (np.linalg.norm(M[:, 0]) + np.linalg.norm(M[:, 1]))
-    M = M / lam
-    if M[2, 2] < 0:
-        M = -M
-    r1, r2, t = M[:, 0], M[:, 1], M[:, 2]
-    Rm = np.column_stack([r1, r2, np.cross(r1, r2)])
-    U, _, Vt = np.linalg.svd(Rm)
-    Rm = U @ Vt
-    if np.linalg.det(Rm) < 0:
-        raise ValueError("homography is a mirror image: camera would be below the pitch")
-    cam = Camera(K=K, R=Rm, t=t)
-    if cam.center[2] <= 0:
-        raise ValueError("camera below the pitch: this homography does not see the pitch from above")
-    return cam
+    return Camera(K=intrinsic_matrix(float(poses.focal[0]), cx, cy, aspect), R=poses.R[0], t=poses.t[0])
 
 
 def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:

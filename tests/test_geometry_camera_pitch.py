@@ -53,19 +53,26 @@ def test_homography_decomposition_round_trip(seed):
     assert np.allclose(cam2.center, cam.center, atol=1e-6)
 
 
-def test_focal_from_homographies_screens_as_the_decomposition_does():
+def test_batched_decomposition_matches_one_by_one():
     rng = np.random.default_rng(5)
     pp = (640.0, 360.0)
     cams = [broadcast_camera(rng, pp) for _ in range(6)]
-    H = np.array([c.H_img_from_pitch * rng.uniform(0.1, 10) for c in cams])
-    # fronto-parallel (f unobservable) and a mirrored, focal-less one
-    H = np.concatenate([H, [np.array([[1000.0, 0, 640], [0, 1000.0, 360], [0, 0, 1.0]]), np.diag([1.0, -1.0, 1.0]) @ np.diag([1.0, 1.0, 1e-3])]])
-    f = gcam.focal_from_homographies(H, pp)
-    assert np.allclose(f[:6], [c.focal for c in cams], rtol=1e-8)
-    assert np.all(np.isnan(f[6:]))
-    for Hk in H[6:]:
-        with pytest.raises(ValueError, match="focal"):
-            gcam.camera_from_homography(Hk, pp)
+    H = [c.H_img_from_pitch * rng.uniform(0.1, 10) for c in cams]
+    bad = [
+        (np.diag([1.0, 1.0, 0.0]), "singular"),
+        (np.array([[1000.0, 0, 640], [0, 1000.0, 360], [0, 0, 1.0]]), "focal"),
+        (cams[0].H_img_from_pitch @ np.diag([1.0, -1.0, 1.0]), "below the pitch"),
+    ]
+    poses = gcam.decompose_homographies(np.array(H + [b for b, _ in bad]), pp)
+    assert poses.ok.tolist() == [True] * 6 + [False] * 3
+    for k, c in enumerate(cams):
+        assert abs(poses.focal[k] / c.focal - 1) < 1e-8
+        assert np.allclose(poses.R[k], c.R, atol=1e-8) and np.allclose(poses.centre[k], c.center, atol=1e-6)
+        one = gcam.camera_from_homography(H[k], pp)
+        assert np.allclose(one.R, poses.R[k], atol=1e-12) and np.allclose(one.t, poses.t[k], atol=1e-9)
+    for k, (Hb, message) in enumerate(bad):
+        with pytest.raises(ValueError, match=message):
+            gcam.camera_from_homography(Hb, pp)
 
 
 @pytest.mark.parametrize("seed", range(8))
