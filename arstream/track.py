@@ -195,12 +195,55 @@ def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: f
     return float(np.isfinite(d).mean())
 
 
-def _pixels_in_view(cam: Camera, model: ModelSamples, size) -> np.ndarray:
-    """(M, 2) pixels of the model samples in view through ``cam``."""
-    from arstream.solve import _visible
+def _sample_bilinear(img: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Bilinear samples (M,) of a float32 image at pixels ``q`` (M, 2) (cv2.remap,
+    whose maps may not be 32767 wide: the points go in rows of 4096)."""
+    m = len(q)
+    if m == 0:
+        return np.zeros(0, np.float32)
+    cols = 4096
+    rows = -(-m // cols)
+    mx = np.zeros(rows * cols, np.float32)
+    my = np.zeros(rows * cols, np.float32)
+    mx[:m], my[:m] = q[:, 0], q[:, 1]
+    return cv2.remap(img, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR).ravel()[:m]
 
-    inside, px = _visible(cam, model, size)
-    return px[inside]
+
+def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, model: ModelSamples, size, margin: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """The model samples through ``cam`` turned in pan about the tripod ``centre`` by
+    each of ``offsets_px`` (D,) (pixels at its focal length; tilt, roll, f and the
+    lens kept), all at once: pixels (D, N, 2) and the in-view mask (D, N) (in
+    front, inside the frame by ``margin``, as ``solve._visible``).
+
+    A pan by ``d`` right-multiplies the rotation by ``Rz(d)``
+    (:func:`geometry.camera.rotation_from_ptr`), so the camera-frame points are
+    ``R Rz(d) (X - C)``; the lens is the refinement's (one radial term, as
+    ``solve._project``)."""
+    d = np.asarray(offsets_px, dtype=np.float64) / cam.focal
+    c, s = np.cos(d)[:, None], np.sin(d)[:, None]
+    Y = model.points - centre
+    ax = c * Y[:, 0] - s * Y[:, 1]  # (D, N) components, each contiguous
+    ay = s * Y[:, 0] + c * Y[:, 1]
+    R = cam.R
+    X0 = R[0, 0] * ax + R[0, 1] * ay + R[0, 2] * Y[:, 2]
+    X1 = R[1, 0] * ax + R[1, 1] * ay + R[1, 2] * Y[:, 2]
+    X2 = R[2, 0] * ax + R[2, 1] * ay + R[2, 2] * Y[:, 2]
+    W, H = size
+    f, cx, cy = cam.K[0, 0], cam.K[0, 2], cam.K[1, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xn, yn = X0 / X2, X1 / X2
+    # in front; the lens model only near the frame by the pinhole projection (a
+    # lens bends far less than a tenth of the frame)
+    near = (X2 > 0.5) & (f * xn > -0.1 * W - cx) & (f * xn < 1.1 * W - cx) & (f * yn > -0.1 * H - cy) & (f * yn < 1.1 * H - cy)
+    xs, ys = xn[near], yn[near]
+    if cam.dist:  # the refinement's lens model (solve._project): one radial term
+        g = 1.0 + cam.dist[0] * (xs * xs + ys * ys)
+        xs, ys = xs * g, ys * g
+    px = np.full(near.shape + (2,), np.nan)
+    px[near, 0] = f * xs + cx
+    px[near, 1] = f * ys + cy
+    inside = near & (px[..., 0] >= margin) & (px[..., 0] <= W - 1 - margin) & (px[..., 1] >= margin) & (px[..., 1] <= H - 1 - margin)
+    return px, inside
 
 
 class Tracker:
@@ -498,14 +541,26 @@ class Tracker:
         n = int(round(c.sweep_range / c.sweep_step))
         offsets = np.arange(-n, n + 1)
         dist = (self._k1_for(pred.focal),) if self.k1 else ()
-        cams = [camera_from_ptz(self.centre, PTZ(ptz.pan + k * step_px / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist) for k in offsets]
-        support = np.array([_support(cam, lidx, self.size, self.model, radius=0.5 * step_px + 1.0, max_samples=150) for cam in cams])
+        base = camera_from_ptz(self.centre, ptz, self.pp, dist=dist)
+        px, inside = _panned_views(base, self.centre, offsets * step_px, self.model, self.size)
+        # per pan: the share of (at most about 150 of) its samples in view with a line pixel nearby
+        picks = []
+        for j in range(len(offsets)):
+            idx = np.flatnonzero(inside[j])
+            picks.append(idx[:: max(len(idx) // 150, 1)] if len(idx) >= 20 else idx[:0])
+        counts = np.array([len(q) for q in picks])
+        support = np.zeros(len(offsets))
+        if counts.any():
+            d, _ = lidx.nearest(np.concatenate([px[j, q] for j, q in enumerate(picks)]), 0.5 * step_px + 1.0)
+            hits = np.bincount(np.repeat(np.arange(len(offsets)), counts), weights=np.isfinite(d), minlength=len(offsets))
+            support = hits / np.maximum(counts, 1)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
         if support[k] <= 0 or (away.any() and support[k] < c.sweep_peak * support[away].max()):
             return None
         try:
-            r = refine_camera(cams[k], lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=(10.0, 4.0, 2.5), max_points=400)
+            start = camera_from_ptz(self.centre, PTZ(ptz.pan + offsets[k] * step_px / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
+            r = refine_camera(start, lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=(10.0, 4.0, 2.5), max_points=400)
         except ValueError:
             return None
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
@@ -538,12 +593,12 @@ class Tracker:
         def camera(dx: float) -> Camera:
             return camera_from_ptz(self.centre, PTZ(ptz.pan + dx / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
 
-        score = np.zeros(len(offsets))
-        for j, dx in enumerate(offsets):
-            px = _pixels_in_view(camera(dx), self.model, self.size)
-            if len(px) >= 20:
-                q = px.astype(np.float32)
-                score[j] = float(cv2.remap(bright, q[None, :, 0], q[None, :, 1], cv2.INTER_LINEAR).mean())
+        px, inside = _panned_views(r.camera, self.centre, offsets, self.model, self.size)
+        counts = inside.sum(axis=1)
+        q = px[inside].astype(np.float32)  # row-major: the pans' samples one after the other
+        vals = _sample_bilinear(bright, q)
+        sums = np.bincount(np.repeat(np.arange(len(offsets)), counts), weights=vals, minlength=len(offsets))
+        score = np.where(counts >= 20, sums / np.maximum(counts, 1), 0.0)
         k = int(np.argmax(score))
         if not 0 < k < len(score) - 1 or score[k] <= 0:
             return r  # no peak inside the window: keep the line pixels' pan
