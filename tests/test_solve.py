@@ -320,3 +320,22 @@ def test_pan_by_brightness_centres_the_smeared_bands():
             _, q = ptz_from_camera(r.camera)
             assert abs(q.pan - p.pan) * p.f < 1.0, (i, off)
             assert (q.tilt, q.roll, q.f) == pytest.approx((p.tilt, p.roll, p.f), abs=1e-9)
+
+
+def test_panned_views_are_the_panned_cameras_views():
+    # all pans at once give exactly what each panned camera sees (solve._visible)
+    from arstream.solve import _visible
+    from arstream.track import _panned_views
+
+    C = np.array([3.0, -60.0, 15.0])
+    pp = (319.5, 179.5)
+    for dist in ((), (-0.05,)):
+        cam = camera_from_ptz(C, PTZ(0.1, 0.25, 0.01, 700.0), pp, dist=dist)
+        offsets = np.array([-40.0, -7.5, 0.0, 12.0, 60.0])
+        px, inside = _panned_views(cam, C, offsets, MODEL, (640, 360))
+        for j, off in enumerate(offsets):
+            cj = camera_from_ptz(C, PTZ(0.1 + off / 700.0, 0.25, 0.01, 700.0), pp, dist=dist)
+            want_in, want_px = _visible(cj, MODEL, (640, 360))
+            assert np.array_equal(inside[j], want_in)
+            assert np.abs(px[j][want_in] - want_px[want_in]).max() < 1e-9
+            assert inside[j].sum() > 100
