@@ -171,12 +171,15 @@ def homographies_from_lines(src_lines, dst_lines) -> tuple[np.ndarray, np.ndarra
     ok (K,) bool): where ``ok`` is False the set is degenerate (concurrent or
     repeated lines) and ``H`` is meaningless.
     """
-    Ls = _unit_lines(np.asarray(src_lines, dtype=np.float64))
-    Ld = _unit_lines(np.broadcast_to(np.asarray(dst_lines, dtype=np.float64), Ls.shape))
+    Ls = np.asarray(src_lines, dtype=np.float64)
     if Ls.ndim != 3 or Ls.shape[2] != 3:
         raise ValueError(f"line arrays must be (K, N, 3), got {Ls.shape}")
     if Ls.shape[1] < 4:
         raise ValueError(f"a homography needs at least 4 line correspondences, got {Ls.shape[1]}")
+    if len(Ls) == 0:
+        return np.zeros((0, 3, 3)), np.zeros(0, bool)
+    Ls = _unit_lines(Ls)
+    Ld = _unit_lines(np.broadcast_to(np.asarray(dst_lines, dtype=np.float64), Ls.shape))
     Ts, Td = _line_conditioning(Ls), _line_conditioning(Ld)
     # lines in conditioned frames: l_n = T^-T l, i.e. rows l @ T^-1
     Lsn = np.einsum("kni,kij->knj", Ls, np.linalg.inv(Ts))

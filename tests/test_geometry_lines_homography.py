@@ -113,6 +113,8 @@ def test_batched_line_homographies_match_one_by_one():
     assert ok2.all() and np.allclose(H2, want[0], atol=1e-10)
     with pytest.raises(ValueError, match="at least 4"):
         gh.homographies_from_lines(np.zeros((2, 3, 3)), np.zeros((3, 3)))
+    H0, ok0 = gh.homographies_from_lines(np.zeros((0, 4, 3)), dst[0][:4])
+    assert H0.shape == (0, 3, 3) and ok0.shape == (0,)
 
 
 def test_homography_noise_is_bounded():
