@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from geometry.conics import normalize_conic
-from geometry.lines import _EPS, hartley_normalization, normalize_line
+from geometry.lines import _hartley_batch, _unit_lines, hartley_normalization, normalize_line
 
 __all__ = [
     "homography_from_points",
@@ -46,10 +46,15 @@ def _check_h(H) -> np.ndarray:
 def normalize_homography(H) -> np.ndarray:
     """Scale (3, 3) ``H`` to unit Frobenius norm with ``H[2, 2] >= 0`` (sign of
     the largest entry when ``H[2, 2]`` is 0). Raises ``ValueError`` if singular."""
-    H = _check_h(H)
-    H = H / np.linalg.norm(H)
-    ref = H[2, 2] if abs(H[2, 2]) > 1e-12 else H.flat[np.argmax(np.abs(H))]
-    return -H if ref < 0 else H
+    return _normalize_batch(_check_h(H)[None])[0]
+
+
+def _normalize_batch(H: np.ndarray) -> np.ndarray:
+    """:func:`normalize_homography`'s scale and sign for K homographies (K, 3, 3)."""
+    H = H / np.linalg.norm(H, axis=(1, 2), keepdims=True)
+    flat = H.reshape(len(H), 9)
+    ref = np.where(np.abs(H[:, 2, 2]) > 1e-12, H[:, 2, 2], flat[np.arange(len(H)), np.argmax(np.abs(flat), axis=1)])
+    return H * np.where(ref < 0, -1.0, 1.0)[:, None, None]
 
 
 def _dlt(X_src: np.ndarray, X_dst: np.ndarray) -> np.ndarray:
@@ -131,28 +136,9 @@ def _line_conditioning(L: np.ndarray) -> np.ndarray:
     n2 = L[..., 0] ** 2 + L[..., 1] ** 2
     has = n2 > 1e-24
     feet = -L[..., 2:3] * L[..., :2] / np.where(has, n2, 1.0)[..., None]
-    cnt = has.sum(axis=1)
-    m = np.maximum(cnt, 1)[:, None]
-    c = (feet * has[..., None]).sum(axis=1) / m
-    d = (np.sqrt(((feet - c[:, None]) ** 2).sum(axis=2)) * has).sum(axis=1) / m[:, 0]
-    good = (cnt >= 2) & (d >= _EPS * np.maximum(1.0, np.abs(c).max(axis=1)))
-    sc = np.where(good, np.sqrt(2.0) / np.where(good, d, 1.0), 1.0)
-    c = np.where(good[:, None], c, 0.0)
-    T = np.zeros((len(L), 3, 3))
-    T[:, 0, 0] = T[:, 1, 1] = sc
-    T[:, :2, 2] = -sc[:, None] * c
-    T[:, 2, 2] = 1.0
+    T, ok = _hartley_batch(feet, has)
+    T[~(ok & (has.sum(axis=1) >= 2))] = np.eye(3)
     return T
-
-
-def _unit_lines(L: np.ndarray) -> np.ndarray:
-    """Lines (..., 3) scaled to ``a^2 + b^2 = 1`` (the line at infinity to unit norm), as
-    :func:`geometry.lines.normalize_line`; zero vectors stay zero."""
-    n = np.hypot(L[..., 0], L[..., 1])
-    full = np.linalg.norm(L, axis=-1)
-    at_inf = n < _EPS * np.maximum(1.0, np.abs(L[..., 2]))
-    div = np.where(at_inf, full, n)
-    return L / np.where(div > 0, div, 1.0)[..., None]
 
 
 def homographies_from_lines(src_lines, dst_lines) -> tuple[np.ndarray, np.ndarray]:
@@ -195,11 +181,7 @@ def homographies_from_lines(src_lines, dst_lines) -> tuple[np.ndarray, np.ndarra
     H = np.linalg.solve(Td, Hn @ Ts)
     h = np.linalg.svd(H, compute_uv=False)
     ok &= h[:, 2] >= 1e-12 * h[:, 0]
-    H /= np.linalg.norm(H, axis=(1, 2), keepdims=True)
-    flat = H.reshape(len(H), 9)
-    ref = np.where(np.abs(H[:, 2, 2]) > 1e-12, H[:, 2, 2], flat[np.arange(len(H)), np.argmax(np.abs(flat), axis=1)])
-    H *= np.where(ref < 0, -1.0, 1.0)[:, None, None]
-    return H, ok
+    return _normalize_batch(H), ok
 
 
 def homography_from_lines(src_lines, dst_lines) -> np.ndarray:
@@ -229,8 +211,8 @@ def homography_from_lines(src_lines, dst_lines) -> np.ndarray:
         raise ValueError(f"line arrays must both be (N, 3), got {Ls.shape} and {Ld.shape}")
     if len(Ls) < 4:
         raise ValueError(f"a homography needs at least 4 line correspondences, got {len(Ls)}")
-    Ls = np.array([normalize_line(l) for l in Ls])  # (raises on a zero vector)
-    Ld = np.array([normalize_line(l) for l in Ld])
+    for l in np.concatenate([Ls, Ld]):
+        normalize_line(l)  # (raises on a zero vector; the batch scales them)
     H, ok = homographies_from_lines(Ls[None], Ld[None])
     if not ok[0]:
         raise ValueError("degenerate lines (concurrent or repeated): homography undefined")

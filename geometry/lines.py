@@ -98,12 +98,27 @@ def hartley_normalization(pts) -> np.ndarray:
     p = np.asarray(pts, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 2 or len(p) == 0:
         raise ValueError(f"pts must have shape (N, 2) with N >= 1, got {p.shape}")
-    c = p.mean(axis=0)
-    d = np.sqrt(((p - c) ** 2).sum(axis=1)).mean()
-    if d < _EPS * max(1.0, float(np.abs(c).max())):
+    T, ok = _hartley_batch(p[None], np.ones((1, len(p)), bool))
+    if not ok[0]:
         raise ValueError("points are all coincident")
-    s = np.sqrt(2.0) / d
-    return np.array([[s, 0.0, -s * c[0]], [0.0, s, -s * c[1]], [0.0, 0.0, 1.0]])
+    return T[0]
+
+
+def _hartley_batch(p: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`hartley_normalization` of K point sets at once: points (K, N, 2), of
+    which ``valid`` (K, N) count. Returns (T (K, 3, 3), ok (K,)): identity where a
+    set has no valid point or they all coincide (``ok`` False)."""
+    cnt = valid.sum(axis=1)
+    m = np.maximum(cnt, 1)
+    c = (p * valid[..., None]).sum(axis=1) / m[:, None]
+    d = (np.sqrt(((p - c[:, None]) ** 2).sum(axis=2)) * valid).sum(axis=1) / m
+    ok = (cnt > 0) & (d >= _EPS * np.maximum(1.0, np.abs(c).max(axis=1)))
+    s = np.where(ok, np.sqrt(2.0) / np.where(ok, d, 1.0), 1.0)
+    T = np.zeros((len(p), 3, 3))
+    T[:, 0, 0] = T[:, 1, 1] = s
+    T[:, :2, 2] = -s[:, None] * np.where(ok[:, None], c, 0.0)
+    T[:, 2, 2] = 1.0
+    return T, ok
 
 
 def normalize_line(line) -> np.ndarray:
@@ -111,12 +126,18 @@ def normalize_line(line) -> np.ndarray:
     l = np.asarray(line, dtype=np.float64)
     if l.shape != (3,):
         raise ValueError(f"line must be (3,), got {l.shape}")
-    n = np.hypot(l[0], l[1])
-    if n < _EPS * max(1.0, abs(l[2])):
-        if abs(l[2]) < _EPS:
-            raise ValueError("line vector is zero")
-        return l / np.linalg.norm(l)
-    return l / n
+    if np.hypot(l[0], l[1]) < _EPS * max(1.0, abs(l[2])) and abs(l[2]) < _EPS:
+        raise ValueError("line vector is zero")
+    return _unit_lines(l)
+
+
+def _unit_lines(L: np.ndarray) -> np.ndarray:
+    """Lines (..., 3) scaled as :func:`normalize_line` does, any number at once;
+    zero vectors stay zero."""
+    n = np.hypot(L[..., 0], L[..., 1])
+    at_inf = n < _EPS * np.maximum(1.0, np.abs(L[..., 2]))
+    div = np.where(at_inf, np.linalg.norm(L, axis=-1), n)
+    return L / np.where(div > 0, div, 1.0)[..., None]
 
 
 def line_through(p, q) -> np.ndarray:
