@@ -182,17 +182,29 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
     return best
 
 
-def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0, max_samples: int = 300) -> float:
-    """Share of the model samples visible through ``cam`` (at most about ``max_samples``
-    of them, evenly taken) with a detected line pixel within ``radius``."""
+def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
+    """Share of the model samples visible through ``cam`` (at most about 300 of
+    them, evenly taken) with a detected line pixel within ``radius``."""
     from arstream.solve import _visible
 
     inside, px = _visible(cam, model, size)
-    n = int(inside.sum())
-    if n < 20:
-        return 0.0
-    d, _ = index.nearest(px[inside][:: max(n // max_samples, 1)], radius)
-    return float(np.isfinite(d).mean())
+    return float(_supports(px[None], inside[None], index, radius, 300)[0])
+
+
+def _supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: float, max_samples: int) -> np.ndarray:
+    """:func:`_support` of D views at once, from their model sample pixels (D, N, 2)
+    and in-view masks (D, N): one nearest-neighbour query for all; 0 for a view with
+    fewer than 20 samples in view."""
+    picks = []
+    for j in range(len(inside)):
+        idx = np.flatnonzero(inside[j])
+        picks.append(idx[:: max(len(idx) // max_samples, 1)] if len(idx) >= 20 else idx[:0])
+    counts = np.array([len(q) for q in picks])
+    if not counts.any():
+        return np.zeros(len(inside))
+    d, _ = index.nearest(np.concatenate([px[j, q] for j, q in enumerate(picks)]), radius)
+    hits = np.bincount(np.repeat(np.arange(len(inside)), counts), weights=np.isfinite(d), minlength=len(inside))
+    return hits / np.maximum(counts, 1)
 
 
 def _sample_bilinear(img: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -543,17 +555,7 @@ class Tracker:
         dist = (self._k1_for(pred.focal),) if self.k1 else ()
         base = camera_from_ptz(self.centre, ptz, self.pp, dist=dist)
         px, inside = _panned_views(base, self.centre, offsets * step_px, self.model, self.size)
-        # per pan: the share of (at most about 150 of) its samples in view with a line pixel nearby
-        picks = []
-        for j in range(len(offsets)):
-            idx = np.flatnonzero(inside[j])
-            picks.append(idx[:: max(len(idx) // 150, 1)] if len(idx) >= 20 else idx[:0])
-        counts = np.array([len(q) for q in picks])
-        support = np.zeros(len(offsets))
-        if counts.any():
-            d, _ = lidx.nearest(np.concatenate([px[j, q] for j, q in enumerate(picks)]), 0.5 * step_px + 1.0)
-            hits = np.bincount(np.repeat(np.arange(len(offsets)), counts), weights=np.isfinite(d), minlength=len(offsets))
-            support = hits / np.maximum(counts, 1)
+        support = _supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
         if support[k] <= 0 or (away.any() and support[k] < c.sweep_peak * support[away].max()):
