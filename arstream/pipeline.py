@@ -250,7 +250,8 @@ class DetectStage(Stage):
 
     Without a detector module every item passes with ``detections=None``
     (``available`` is False). ``item.matte`` is the detector's grass mask, at
-    the analysis size (the render stage scales it up).
+    the analysis size (the render stage scales it up). A ``detector`` given
+    instead has the same ``process(image, lazy=True)`` contract.
     """
 
     name = "detect"
@@ -262,18 +263,12 @@ class DetectStage(Stage):
             detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
         self.detector = detector
         self.available = detector is not None
-        try:
-            import inspect
-
-            self._lazy = {"lazy": True} if detector is not None and "lazy" in inspect.signature(detector.process).parameters else {}
-        except (TypeError, ValueError):
-            self._lazy = {}
 
     def process(self, item: Item) -> list[Item]:
         if self.detector is not None:
             # lines and ellipses on demand: a tracker following a locked camera
             # needs only the line points (re-initialisation asks for the rest)
-            det = self.detector.process(self.analysis.image(item), **self._lazy)
+            det = self.detector.process(self.analysis.image(item), lazy=True)
             item.detections = det
             item.matte = _matte_of(det)
         return [item]
@@ -604,10 +599,7 @@ class RenderStage(Stage):
         """The grass matte for the renderer: as it is when it has the frame's size or
         is smaller with its aspect ratio (the renderer stretches it on the GPU),
         else scaled to the frame."""
-        if matte is None or matte.shape[:2] == (self.height, self.width):
-            return matte
-        h, w = matte.shape[:2]
-        if h < self.height and w < self.width and abs((self.width / w) / (self.height / h) - 1.0) <= 0.02:
+        if matte is None or matte.shape[:2] == (self.height, self.width) or self.renderer.stretches_matte(matte.shape):
             return matte
         if self._matte is None:
             self._matte = np.empty((self.height, self.width), np.uint8)

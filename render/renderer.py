@@ -489,6 +489,13 @@ class Renderer:
         tex.use(1)
         return scale
 
+    def stretches_matte(self, shape) -> bool:
+        """Whether a grass matte of ``shape`` (h, w), smaller than the frame, is taken
+        as it is: stretched over the frame by the texture's bilinear filtering,
+        which needs the frame's aspect ratio (within 2 %)."""
+        h, w = shape[:2]
+        return 0 < h < self.height and 0 < w < self.width and abs((self.width / w) / (self.height / h) - 1.0) <= 0.02
+
     def _check_matte(self, grass_matte) -> np.ndarray | None:
         if grass_matte is None:
             return None
@@ -496,10 +503,7 @@ class Renderer:
         if m.ndim == 3 and m.shape[2] == 1:
             m = m[..., 0]
         if m.ndim == 2 and 0 < m.shape[0] < self.height and 0 < m.shape[1] < self.width:
-            # a smaller matte (a detector's low-resolution grass mask) is stretched over the
-            # frame by the texture's bilinear filtering: same aspect ratio required
-            sx, sy = self.width / m.shape[1], self.height / m.shape[0]
-            if abs(sx / sy - 1.0) > 0.02:
+            if not self.stretches_matte(m.shape):
                 raise ValueError(f"a grass_matte smaller than the frame must have its aspect ratio: {m.shape} for ({self.height}, {self.width})")
         elif m.shape != (self.height, self.width):
             raise ValueError(f"grass_matte must be ({self.height}, {self.width}) like the frame, got {m.shape}")
