@@ -37,6 +37,7 @@ __all__ = [
     "ellipse_from_conic",
     "conic_from_circle",
     "fit_ellipse_direct",
+    "direct_fit_scatter",
     "refine_ellipse",
     "fit_ellipse",
     "ellipse_distance",
@@ -267,6 +268,51 @@ def ellipse_from_conic(C) -> Ellipse:
     return Ellipse(center=(center[0], center[1]), axes=(a, b), angle=angle)
 
 
+def direct_fit_scatter(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The direct ellipse fit (Halir-Flusser) of K point sets at once, from their
+    scatter matrices (K, 6, 6) of the monomials ``[x^2, xy, y^2, x, y, 1]``.
+
+    Returns
+    -------
+    (coef (K, 6) ``[A, B, C, D, E, F]`` of ``A x^2 + B xy + C y^2 + D x + E y + F``,
+    valid (K,) bool): False where a set is degenerate or has no elliptical solution.
+    """
+    K = len(S)
+    S1 = S[:, :3, :3]
+    S2 = S[:, :3, 3:]
+    S3 = S[:, 3:, 3:]
+    try:
+        T = -np.linalg.solve(S3, np.transpose(S2, (0, 2, 1)))
+    except np.linalg.LinAlgError:
+        # a degenerate member (too few distinct points): solve one by one
+        T = np.zeros((K, 3, 3))
+        for k in range(K):
+            try:
+                T[k] = -np.linalg.solve(S3[k], S2[k].T)
+            except np.linalg.LinAlgError:
+                T[k] = np.nan
+    M = S1 + S2 @ T
+    Mp = np.empty_like(M)
+    Mp[:, 0] = 0.5 * M[:, 2]
+    Mp[:, 1] = -M[:, 1]
+    Mp[:, 2] = 0.5 * M[:, 0]
+    fin = np.isfinite(Mp).all(axis=(1, 2))
+    if not fin.all():
+        Mp[~fin] = np.eye(3)
+    w, V = np.linalg.eig(Mp)
+    V = V.real
+    cond = 4 * V[:, 0, :] * V[:, 2, :] - V[:, 1, :] ** 2  # (K, 3) per eigenvector
+    cond = np.where(cond > 0, np.abs(w.real), np.inf)
+    j = np.argmin(cond, axis=1)
+    r = np.arange(K)
+    valid = fin & np.isfinite(cond[r, j])
+    a1 = V[r, :, j]  # (K, 3)
+    coef = np.empty((K, 6))
+    coef[:, :3] = a1
+    coef[:, 3:] = (T @ a1[:, :, None])[:, :, 0]
+    return coef, valid
+
+
 def fit_ellipse_direct(pts, weights=None) -> Ellipse:
     """Direct least-squares ellipse fit (Fitzgibbon et al. 1999, in the
     numerically stable form of Halir & Flusser 1998), on Hartley-normalised
@@ -303,27 +349,13 @@ def fit_ellipse_direct(pts, weights=None) -> Ellipse:
     if sv[1] < 1e-9 * sv[0]:
         raise ValueError("points are collinear: no ellipse through them")
     x, y = q[:, 0], q[:, 1]
-    D1 = np.stack([x * x, x * y, y * y], axis=1)
-    D2 = np.stack([x, y, np.ones_like(x)], axis=1)
+    D = np.stack([x * x, x * y, y * y, x, y, np.ones_like(x)], axis=1)
     if w is not None:
-        sw = np.sqrt(w)[:, None]
-        D1, D2 = D1 * sw, D2 * sw
-    S1, S2, S3 = D1.T @ D1, D1.T @ D2, D2.T @ D2
-    try:
-        Tm = -np.linalg.solve(S3, S2.T)
-    except np.linalg.LinAlgError:
-        raise ValueError("degenerate point set: no ellipse fit") from None
-    M = S1 + S2 @ Tm
-    M = np.array([M[2] / 2.0, -M[1], M[0] / 2.0])
-    evals, evecs = np.linalg.eig(M)
-    evecs = np.real(evecs)
-    cond = 4 * evecs[0] * evecs[2] - evecs[1] ** 2
-    ok = np.flatnonzero(cond > 0)
-    if len(ok) == 0:
-        raise ValueError("no elliptical solution for these points")
-    a1 = evecs[:, ok[np.argmin(np.abs(np.real(evals[ok])))]]
-    coef = np.concatenate([a1, Tm @ a1])
-    A, B, Cc, Dd, E, F = coef
+        D = D * np.sqrt(w)[:, None]
+    coef, valid = direct_fit_scatter((D.T @ D)[None])
+    if not valid[0]:
+        raise ValueError("no elliptical solution for these points (or a degenerate point set)")
+    A, B, Cc, Dd, E, F = coef[0]
     Cn = np.array([[A, B / 2, Dd / 2], [B / 2, Cc, E / 2], [Dd / 2, E / 2, F]])
     return ellipse_from_conic(T.T @ Cn @ T)
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from geometry.conics import Ellipse, ellipse_from_conic
+from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
 
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
 
@@ -46,46 +46,9 @@ def _monomials(q: np.ndarray) -> np.ndarray:
 
 
 def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Halir-Flusser direct ellipse fit for a stack of scatter matrices (K, 6, 6)
-    of the monomials ``[x^2, xy, y^2, x, y, 1]``.
-
-    Returns (coef (K, 6) [A, B, C, D, E, F], valid (K,) bool)."""
-    K = len(S)
-    if K == 1:
-        return _direct_fit_one(S[0])
-    S1 = S[:, :3, :3]
-    S2 = S[:, :3, 3:]
-    S3 = S[:, 3:, 3:]
-    try:
-        T = -np.linalg.solve(S3, np.transpose(S2, (0, 2, 1)))
-    except np.linalg.LinAlgError:
-        # a degenerate member (too few distinct points): solve one by one
-        T = np.zeros((K, 3, 3))
-        for k in range(K):
-            try:
-                T[k] = -np.linalg.solve(S3[k], S2[k].T)
-            except np.linalg.LinAlgError:
-                T[k] = np.nan
-    M = S1 + S2 @ T
-    Mp = np.empty_like(M)
-    Mp[:, 0] = 0.5 * M[:, 2]
-    Mp[:, 1] = -M[:, 1]
-    Mp[:, 2] = 0.5 * M[:, 0]
-    fin = np.isfinite(Mp).all(axis=(1, 2))
-    if not fin.all():
-        Mp[~fin] = np.eye(3)
-    w, V = np.linalg.eig(Mp)
-    V = V.real
-    cond = 4 * V[:, 0, :] * V[:, 2, :] - V[:, 1, :] ** 2  # (K, 3) per eigenvector
-    cond = np.where(cond > 0, np.abs(w.real), np.inf)
-    j = np.argmin(cond, axis=1)
-    r = np.arange(K)
-    valid = fin & np.isfinite(cond[r, j])
-    a1 = V[r, :, j]  # (K, 3)
-    coef = np.empty((K, 6))
-    coef[:, :3] = a1
-    coef[:, 3:] = (T @ a1[:, :, None])[:, :, 0]
-    return coef, valid
+    """:func:`geometry.conics.direct_fit_scatter` (coef (K, 6), valid (K,)), with
+    OpenCV's small solvers for a single scatter matrix (the per-frame refinement)."""
+    return _direct_fit_one(S[0]) if len(S) == 1 else direct_fit_scatter(S)
 
 
 def _direct_fit_one(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -119,12 +82,6 @@ def conic_values(coef: np.ndarray, q: np.ndarray):
     gx = 2 * A * x + B * y + Dd
     gy = B * x + 2 * C * y + E
     return f, gx, gy
-
-
-def _coef_to_conic(coef: np.ndarray, Tn: np.ndarray) -> np.ndarray:
-    A, B, C, D, E, F = coef
-    Cn = np.array([[A, B / 2, D / 2], [B / 2, C, E / 2], [D / 2, E / 2, F]])
-    return Tn.T @ Cn @ Tn
 
 
 def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.3, spacing: float = 1.0, visible=None) -> tuple[float, float]:
