@@ -41,8 +41,11 @@ class LineGroup:
 
 def _tls(P: np.ndarray):
     """Total-least-squares line of points (N, 2): (line (3,), direction (2,), rms).
-    (Second moments from one product: coordinates are working pixels, so the
-    centring in floating point loses nothing that matters.)"""
+    (:func:`geometry.lines.fit_line`'s fit without its checks and uncertainties:
+    it runs some 15 times a frame in the Hough loop, and the final support is
+    fitted with ``fit_line`` in frame pixels. Second moments from one product:
+    coordinates are working pixels, so the centring in floating point loses
+    nothing that matters.)"""
     n = len(P)
     s = P.sum(axis=0)
     S = P.T @ P
