@@ -25,11 +25,15 @@ bounded (only camera parameters are kept).
 Whip pans: when the pan outruns the motion model and blur leaves too few
 markings for the refinement from the prediction, the tracker sweeps the pan
 angle about the tripod centre (tilt, roll and f kept), scoring each angle by
-the share of projected markings with a detected line pixel nearby, refines
-from a clear peak, sets the pan where the projected markings lie on the
-brightest structure across the rows (the smeared bands the ridge detector
-misses), and restarts the filter from that measurement at the pan rate since
-the last one.
+the share of projected markings with a detected line pixel nearby (the part
+of it above its floor must peak clearly: markings along the pan match at every
+angle), refines from the peak (or, when the refinement finds too little to fix
+tilt, roll and f, keeps the prediction's), sets the pan where the projected
+markings lie on the brightest structure across the rows (the smeared bands
+the ridge detector misses: the midpoint of the brightness hump's half-height
+crossings, since a band as wide as the blur has a flat, uneven top), and
+restarts the filter from that measurement at the pan rate since the last one.
+Measurements accepted on few line pixels (blur) get the same pan by brightness.
 
 Statuses: "ok" (measured this frame), "tracked" (carried by the filter
 through a frame without an accepted measurement, at most ``max_coast``
@@ -81,6 +85,23 @@ class TrackerConfig:
     sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
     sweep_peak: float = 1.2  # its support over the best support half the range away
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
+
+
+def _hump_centre(x: np.ndarray, y: np.ndarray, k: int) -> float | None:
+    """Midpoint of the half-maximum crossings either side of the peak ``k`` of the
+    curve ``y(x)`` (its floor: the curve's minimum), interpolated linearly; None
+    when the curve does not fall to half on both sides within the window."""
+    lo = float(y.min())
+    half = lo + 0.5 * (float(y[k]) - lo)
+    below = y < half
+    left = np.flatnonzero(below[:k])
+    right = np.flatnonzero(below[k + 1 :])
+    if not len(left) or not len(right):
+        return None
+    i, j = left[-1], k + 1 + right[0]
+    xl = x[i] + (half - y[i]) / (y[i + 1] - y[i]) * (x[i + 1] - x[i])
+    xr = x[j - 1] + (half - y[j - 1]) / (y[j] - y[j - 1]) * (x[j] - x[j - 1])
+    return 0.5 * (xl + xr)
 
 
 def _ptz_vector(cam: Camera, centre: np.ndarray) -> np.ndarray:
@@ -298,7 +319,7 @@ class Tracker:
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -450,6 +471,8 @@ class Tracker:
                 # when what was detected lies on the projected markings (precision)
                 if meas.confidence < self.cfg.accept_low or explained_share(meas.camera, lidx, self.size, self.model) < self.cfg.min_explained:
                     meas = None
+                elif image is not None and self.centre is not None:
+                    meas = self._pan_by_brightness(meas, image)
         source = "track"
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
@@ -558,7 +581,10 @@ class Tracker:
         support = _supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
-        if support[k] <= 0 or (away.any() and support[k] < c.sweep_peak * support[away].max()):
+        # markings along the pan (the touchlines in a horizontal whip) match at every
+        # pan: the floor of the support says nothing about the pan, the rest must peak
+        floor = support.min()
+        if support[k] <= 0 or (away.any() and support[k] - floor < c.sweep_peak * (support[away].max() - floor)):
             return None
         try:
             start = camera_from_ptz(self.centre, PTZ(ptz.pan + offsets[k] * step_px / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
@@ -566,7 +592,12 @@ class Tracker:
         except ValueError:
             return None
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
-            return None
+            if image is None or support[k] < c.sweep_accept:
+                return None
+            # too few line pixels to fix tilt, roll and zoom (heavy blur): keep the
+            # prediction's, which change slowly, and set only the pan
+            r = replace(r, camera=start)
+            self.stats["pan_only"] += 1
         return self._pan_by_brightness(r, image) if image is not None else r
 
     def _pan_by_brightness(self, r: Refinement, image: np.ndarray) -> Refinement:
@@ -604,9 +635,11 @@ class Tracker:
         k = int(np.argmax(score))
         if not 0 < k < len(score) - 1 or score[k] <= 0:
             return r  # no peak inside the window: keep the line pixels' pan
-        a, b, d = score[k - 1], score[k], score[k + 1]
-        den = a - 2 * b + d
-        dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
+        dx = _hump_centre(offsets, score, k)
+        if dx is None:
+            a, b, d = score[k - 1], score[k], score[k + 1]
+            den = a - 2 * b + d
+            dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
         return replace(r, camera=camera(dx))
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
