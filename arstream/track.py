@@ -242,8 +242,8 @@ def _sample_bilinear(img: np.ndarray, q: np.ndarray) -> np.ndarray:
     return cv2.remap(img, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR).ravel()[:m]
 
 
-def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, model: ModelSamples, size, margin: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-    """The model samples through ``cam`` turned in pan about the tripod ``centre`` by
+def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, points: np.ndarray, size, margin: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """The model samples ``points`` (N, 3) through ``cam`` turned in pan about the tripod ``centre`` by
     each of ``offsets_px`` (D,) (pixels at its focal length; tilt, roll, f and the
     lens kept), all at once: pixels (D, N, 2) and the in-view mask (D, N) (in
     front, inside the frame by ``margin``, as ``solve._visible``).
@@ -254,7 +254,7 @@ def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, model
     ``solve._project``)."""
     d = np.asarray(offsets_px, dtype=np.float64) / cam.focal
     c, s = np.cos(d)[:, None], np.sin(d)[:, None]
-    Y = model.points - centre
+    Y = points - centre
     ax = c * Y[:, 0] - s * Y[:, 1]  # (D, N) components, each contiguous
     ay = s * Y[:, 0] + c * Y[:, 1]
     R = cam.R
@@ -577,7 +577,7 @@ class Tracker:
         offsets = np.arange(-n, n + 1)
         dist = (self._k1_for(pred.focal),) if self.k1 else ()
         base = camera_from_ptz(self.centre, ptz, self.pp, dist=dist)
-        px, inside = _panned_views(base, self.centre, offsets * step_px, self.model, self.size)
+        px, inside = _panned_views(base, self.centre, offsets * step_px, self.model.points, self.size)
         support = _supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
@@ -626,7 +626,13 @@ class Tracker:
         def camera(dx: float) -> Camera:
             return camera_from_ptz(self.centre, PTZ(ptz.pan + dx / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
 
-        px, inside = _panned_views(r.camera, self.centre, offsets, self.model, self.size)
+        # the samples that come into view at some pan of the window (a sample moves
+        # one way across the frame as the pan turns), at most 1200 of them
+        _, near = _panned_views(r.camera, self.centre, offsets[[0, n, -1]], self.model.points, self.size, margin=-0.1 * self.size[0])
+        pts = self.model.points[near.any(axis=0)]
+        if len(pts) > 1200:
+            pts = pts[np.linspace(0, len(pts) - 1, 1200).astype(np.intp)]
+        px, inside = _panned_views(r.camera, self.centre, offsets, pts, self.size)
         counts = inside.sum(axis=1)
         q = px[inside].astype(np.float32)  # row-major: the pans' samples one after the other
         vals = _sample_bilinear(bright, q)

@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from arstream.estimate import CameraEstimate  # noqa: E402
 from arstream.evaluate import score  # noqa: E402
-from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Analysis  # noqa: E402
+from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Analysis, Item  # noqa: E402
 from arstream.sink import read_jsonl  # noqa: E402
 from arstream.source import VideoSource  # noqa: E402
 from arstream.synth import PRESETS, generate  # noqa: E402
@@ -63,7 +63,7 @@ def run(preset: str, frames: int, seed: int, truth_dets: bool, lag: int, workdir
     ests, solve_ms, det_ms = [], [], []
     with VideoSource(out / "clip.mp4") as src:
         for frame in src:
-            img = frame.image if an.full else cv2.resize(frame.image, (an.w, an.h), interpolation=cv2.INTER_AREA)
+            img = an.image(Item(frame))  # as the pipeline makes it: from the decoder's I420 planes
             t0 = time.perf_counter()
             cam = Camera.from_dict(truth[frame.index]) if truth[frame.index]["K"] else None
             det = truth_detections(cam, seed=frame.index) if truth_dets else detector.process(img, lazy=True)

@@ -386,7 +386,7 @@ def test_panned_views_are_the_panned_cameras_views():
     for dist in ((), (-0.05,)):
         cam = camera_from_ptz(C, PTZ(0.1, 0.25, 0.01, 700.0), pp, dist=dist)
         offsets = np.array([-40.0, -7.5, 0.0, 12.0, 60.0])
-        px, inside = _panned_views(cam, C, offsets, MODEL, (640, 360))
+        px, inside = _panned_views(cam, C, offsets, MODEL.points, (640, 360))
         for j, off in enumerate(offsets):
             cj = camera_from_ptz(C, PTZ(0.1 + off / 700.0, 0.25, 0.01, 700.0), pp, dist=dist)
             want_in, want_px = _visible(cj, MODEL, (640, 360))
