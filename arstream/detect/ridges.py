@@ -9,7 +9,10 @@ Two steps, both at the working resolution:
 2. Centres: Steger's sub-pixel ridge detector at the candidates. The
    Hessian of the Gaussian-smoothed luma gives the normal ``n`` of the line;
    the second-order Taylor model along ``n`` gives the offset ``t`` of the
-   ridge maximum; a candidate is a centre point when that maximum falls inside
+   ridge maximum, after the grass's own slope across the line (a linear
+   background through the two side samples below) is taken out, so that a
+   line on the edge of a mowing stripe or a shadow is not pulled toward the
+   bright side; a candidate is a centre point when that maximum falls inside
    its own pixel (``|t n| <= 0.5``). A centre must also be brighter than the
    grass on *both* sides at a distance beyond the line's half width (a step
    edge is bright on one side only) and be elongated (``|l2| < |l1|``).
@@ -135,30 +138,38 @@ def ridge_points(
     nn[~ok] = 1.0
     nx /= nn
     ny /= nn
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -(gx * nx + gy * ny) / l1
-    ox, oy = t * nx, t * ny
-    ok &= (np.abs(ox) <= 0.5) & (np.abs(oy) <= 0.5)
     # elongated: the second curvature well below the first (blobs have both large)
     ok &= l2 > 0.5 * l1
     if not ok.any():
         return RidgePoints.empty(), cand
     sel = np.flatnonzero(ok)
-    x, y, nx, ny, ox, oy, c, l1 = x[sel], y[sel], nx[sel], ny[sel], ox[sel], oy[sel], c[sel], l1[sel]
-    # brighter than the grass on both sides, beyond the half width
+    x, y, nx, ny, gx, gy, c, l1 = x[sel], y[sel], nx[sel], ny[sel], gx[sel], gy[sel], c[sel], l1[sel]
+    # the grass on both sides, beyond the half width
     d = 0.5 * kernel
-    px = x + ox
-    py = y + oy
-    sx1 = np.clip(np.rint(px + d * nx), 0, w - 1).astype(np.intp)
-    sy1 = np.clip(np.rint(py + d * ny), 0, h - 1).astype(np.intp)
-    sx2 = np.clip(np.rint(px - d * nx), 0, w - 1).astype(np.intp)
-    sy2 = np.clip(np.rint(py - d * ny), 0, h - 1).astype(np.intp)
+    sx1 = np.clip(np.rint(x + d * nx), 0, w - 1).astype(np.intp)
+    sy1 = np.clip(np.rint(y + d * ny), 0, h - 1).astype(np.intp)
+    sx2 = np.clip(np.rint(x - d * nx), 0, w - 1).astype(np.intp)
+    sy2 = np.clip(np.rint(y - d * ny), 0, h - 1).astype(np.intp)
     b1 = Bf[sy1 * w + sx1]
     b2 = Bf[sy2 * w + sx2]
+    # the centre, with the grass's own slope across the line taken out (a linear
+    # background through the side samples): a line on the edge of a mowing
+    # stripe or a shadow sits on a step, whose slope would pull the maximum
+    # toward the bright side (by up to a pixel or two for a line smeared wide by
+    # a pan, whose curvature is weak). The sides count as grass when they differ
+    # by at most half the line's rise over the brighter one (else one is on the
+    # line itself: a band wider than the scale)
     contrast = c - np.maximum(b1, b2)
+    slope = np.where(np.abs(b1 - b2) <= 0.5 * contrast, (b1 - b2) / (2.0 * d), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -(gx * nx + gy * ny - slope) / l1
+    ox, oy = t * nx, t * ny
+    ok = (np.abs(ox) <= 0.5) & (np.abs(oy) <= 0.5)
+    px = x + ox
+    py = y + oy
     # a line wider than the scale is a plateau: flat (weak curvature for its
     # contrast) with a centre anywhere on it; the coarser pass finds it
-    ok = (contrast >= min_contrast) & (-l1 >= curvature_ratio * contrast)
+    ok &= (contrast >= min_contrast) & (-l1 >= curvature_ratio * contrast)
     if not ok.any():
         return RidgePoints.empty(), cand
     pts = np.column_stack([px[ok], py[ok]])
