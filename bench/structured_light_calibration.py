@@ -23,6 +23,7 @@ Usage::
 
     .venv/bin/python bench/structured_light_calibration.py [--trials 30] [--image-trials 3] [--json out.json]
     .venv/bin/python bench/structured_light_calibration.py --setups --trials 20   # sphere size / range / M table
+    .venv/bin/python bench/structured_light_calibration.py --aimed --trials 20    # the plane aimed at the working range
 """
 
 from __future__ import annotations
@@ -52,12 +53,18 @@ PROJ = np.array([0.3, 0.0, 0.0])
 PLANE = SL.LightPlane.from_point_normal(PROJ, [1.0, 0.0, 0.3])
 
 
-def centres(rng, n, r=R, max_offset=0.7, zrange=ZRANGE):
+def aimed_plane(z0: float) -> SL.LightPlane:
+    """The projector's light plane turned to cross the optical axis at depth ``z0``."""
+    return SL.LightPlane.from_point_normal(PROJ, [1.0, 0.0, PROJ[0] / z0])
+
+
+def centres(rng, n, r=R, max_offset=0.7, zrange=ZRANGE, plane=None):
     """n sphere centres at depths drawn from zrange, cut by the plane, the whole outline in the image.
 
     Depths at which no such position exists are redrawn, so the depths actually used can span
     less than zrange (the plane leaves the image's right edge close to the camera).
     """
+    plane = plane or PLANE
     out, tries = [], 0
     while len(out) < n:
         tries += 1
@@ -66,33 +73,34 @@ def centres(rng, n, r=R, max_offset=0.7, zrange=ZRANGE):
         z = rng.uniform(*zrange)
         y = rng.uniform(-0.18, 0.18) * z
         off = rng.uniform(-max_offset, max_offset) * r
-        x = (PLANE.d + off - PLANE.normal[1] * y - PLANE.normal[2] * z) / PLANE.normal[0]
+        x = (plane.d + off - plane.normal[1] * y - plane.normal[2] * z) / plane.normal[0]
         X = np.array([x, y, z])
         p = K0 @ X
         p = p[:2] / p[2]
         rad = K0[0, 0] * r / z
         if rad + 5 < p[0] < SIZE[0] - rad - 5 and rad + 5 < p[1] < SIZE[1] - rad - 5:
             try:
-                SL.stripe_points(K0, X, r, PLANE, 10, projector=PROJ)
+                SL.stripe_points(K0, X, r, plane, 10, projector=PROJ)
             except ValueError:
                 continue
             out.append(X)
     return np.array(out)
 
 
-def per_pixel_counts(X, r):
+def per_pixel_counts(X, r, plane=None):
     """Edge points: one per pixel of perimeter; stripe points: one per pixel of arc."""
     e = ellipse_from_conic(outline_conic(K0, X, r))
     n_edge = int(np.pi * (e.axes[0] + e.axes[1]))
-    arc = SL.stripe_points(K0, X, r, PLANE, 400, projector=PROJ)
+    arc = SL.stripe_points(K0, X, r, plane or PLANE, 400, projector=PROJ)
     n_stripe = max(20, int(np.linalg.norm(np.diff(arc, axis=0), axis=1).sum()))
     return n_edge, n_stripe
 
 
-def observe(rng, X, r, noise):
-    n_edge, n_stripe = per_pixel_counts(X, r)
+def observe(rng, X, r, noise, plane=None):
+    plane = plane or PLANE
+    n_edge, n_stripe = per_pixel_counts(X, r, plane)
     e = syn.sphere_outline_points(K0, X, r, n_edge, noise=noise, rng=rng)
-    s = SL.stripe_points(K0, X, r, PLANE, n_stripe, projector=PROJ, noise=noise, rng=rng)
+    s = SL.stripe_points(K0, X, r, plane, n_stripe, projector=PROJ, noise=noise, rng=rng)
     return e, s
 
 
@@ -101,39 +109,40 @@ def apparent_radius(X, r):
     return float(np.mean(ellipse_from_conic(outline_conic(K0, X, r)).axes))
 
 
-def trial(rng, M, noise, r=R, r_test=R_TEST, zrange=ZRANGE):
+def trial(rng, M, noise, r=R, r_test=R_TEST, zrange=ZRANGE, plane=None):
     R, R_TEST = r, r_test  # noqa: N806  (the module defaults unless a setup overrides them)
-    X = centres(rng, M, r=R, zrange=zrange)
-    edges, stripes = zip(*(observe(rng, x, R, noise) for x in X))
+    pl = plane or PLANE
+    X = centres(rng, M, r=R, zrange=zrange, plane=pl)
+    edges, stripes = zip(*(observe(rng, x, R, noise, pl) for x in X))
     conics = [fit_ellipse(e).conic for e in edges]
     t0 = time.perf_counter()
     res = SL.calibrate(conics, list(stripes), radius=R, edge_points=list(edges))
     dt = time.perf_counter() - t0
     # test sphere
-    Xt = centres(rng, 1, r=R_TEST, max_offset=0.6, zrange=zrange)[0]
-    et, st = observe(rng, Xt, R_TEST, noise)
+    Xt = centres(rng, 1, r=R_TEST, max_offset=0.6, zrange=zrange, plane=pl)[0]
+    et, st = observe(rng, Xt, R_TEST, noise, pl)
     m = SL.measure_sphere(res.K, res.plane, fit_ellipse(et).conic, st)
     wd = float(np.linalg.norm(Xt))
     surf = np.abs(np.linalg.norm(m.points - Xt, axis=1) - R_TEST) / wd
-    clean = SL.stripe_points(K0, Xt, R_TEST, PLANE, 100, projector=PROJ)
-    calib_only = np.linalg.norm(SL.triangulate(res.K, res.plane, clean) - SL.triangulate(K0, PLANE, clean), axis=1) / wd
+    clean = SL.stripe_points(K0, Xt, R_TEST, pl, 100, projector=PROJ)
+    calib_only = np.linalg.norm(SL.triangulate(res.K, res.plane, clean) - SL.triangulate(K0, pl, clean), axis=1) / wd
     # the same data with the intrinsics known (only the spheres and the plane estimated)
     resK = SL.calibrate(conics, list(stripes), radius=R, edge_points=list(edges), K=K0)
     mK = SL.measure_sphere(K0, resK.plane, fit_ellipse(et).conic, st)
     surfK = np.abs(np.linalg.norm(mK.points - Xt, axis=1) - R_TEST) / wd
-    calib_onlyK = np.linalg.norm(SL.triangulate(K0, resK.plane, clean) - SL.triangulate(K0, PLANE, clean), axis=1) / wd
+    calib_onlyK = np.linalg.norm(SL.triangulate(K0, resK.plane, clean) - SL.triangulate(K0, pl, clean), axis=1) / wd
     return {
         "known_K_calib_only_max": float(calib_onlyK.max()),
-        "known_K_normal_deg": float(np.degrees(resK.plane.angle_to(PLANE))),
-        "known_K_d_err": float(abs(resK.plane.d / PLANE.d - 1)),
+        "known_K_normal_deg": float(np.degrees(resK.plane.angle_to(pl))),
+        "known_K_d_err": float(abs(resK.plane.d / pl.d - 1)),
         "known_K_test_radius_err": float(abs(mK.radius / R_TEST - 1)),
         "known_K_surface_rms": float(np.sqrt(np.mean(surfK**2))),
         "shape_rms": float(m.rms / wd),
         "focal_spheres": float(max(abs(res.K_spheres[0, 0] / K0[0, 0] - 1), abs(res.K_spheres[1, 1] / K0[1, 1] - 1))),
         "focal": float(max(abs(res.K[0, 0] / K0[0, 0] - 1), abs(res.K[1, 1] / K0[1, 1] - 1))),
-        "normal_init_deg": float(np.degrees(res.plane_init.angle_to(PLANE))),
-        "normal_deg": float(np.degrees(res.plane.angle_to(PLANE))),
-        "d_err": float(abs(res.plane.d / PLANE.d - 1)),
+        "normal_init_deg": float(np.degrees(res.plane_init.angle_to(pl))),
+        "normal_deg": float(np.degrees(res.plane.angle_to(pl))),
+        "d_err": float(abs(res.plane.d / pl.d - 1)),
         "test_radius_err": float(abs(m.radius / R_TEST - 1)),
         "surface_rms": float(np.sqrt(np.mean(surf**2))),
         "surface_max": float(surf.max()),
@@ -239,6 +248,40 @@ def run_setups(trials, noise=0.5, seed=300):
     return out
 
 
+AIMED = ((0.05, (0.4, 0.9), 20), (0.10, (0.4, 0.9), 10), (0.10, (0.4, 0.9), 20), (0.10, (0.6, 1.5), 20))
+
+
+def run_aimed(trials, noise=0.5, seed=500):
+    """The light plane turned to cross the optical axis in the middle of the working
+    range (projector where it was), for sphere radius x range x M (test sphere 0.8 R)."""
+    out = {}
+    print(f"light plane aimed at the middle of the range, {noise} px, {trials} trials each; mean (median) over trials", flush=True)
+    print("| R | range | M | triangulation angle | focal (joint) | normal (deg) | test radius | surface rms | surface rms, K known | fail |", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    for i, (r, zr, M) in enumerate(AIMED):
+        plane = aimed_plane(0.5 * (zr[0] + zr[1]))
+        angle = float(np.degrees(np.arcsin(abs(plane.normal[2]))))
+        rng = np.random.default_rng(seed + i)
+        rows, fails = [], 0
+        for _ in range(trials):
+            try:
+                rows.append(trial(rng, M, noise, r=r, r_test=0.8 * r, zrange=zr, plane=plane))
+            except ValueError as exc:
+                fails += 1
+                print("   failure:", exc, flush=True)
+        keys = ("focal", "normal_deg", "test_radius_err", "surface_rms", "known_K_surface_rms")
+        s = {k: summary(rows, k) for k in keys}
+        s["failures"], s["angle_deg"] = fails, angle
+        out[f"aimed_R{r}_z{zr[0]}-{zr[1]}_M{M}"] = s
+        pc = lambda k: f"{100 * s[k]['mean']:.3f} % ({100 * s[k]['median']:.3f})"  # noqa: E731
+        print(
+            f"| {100 * r:.0f} cm | {zr[0]}-{zr[1]} m | {M} | {angle:.0f} deg | {pc('focal')} | {s['normal_deg']['mean']:.3f} ({s['normal_deg']['median']:.3f}) "
+            f"| {pc('test_radius_err')} | {pc('surface_rms')} | {pc('known_K_surface_rms')} | {fails} |",
+            flush=True,
+        )
+    return out
+
+
 def run_images(trials, M, seed):
     rng = np.random.default_rng(seed)
     rows = []
@@ -304,10 +347,15 @@ def main(argv=None) -> int:
         help="instead: a table over sphere radius {5, 10 cm} x working range {0.6-1.5, 0.4-0.9 m} x M {10, 20} "
         "positions at 0.5 px (use --trials 20)",
     )
+    ap.add_argument(
+        "--aimed", action="store_true",
+        help="instead: the light plane aimed at the middle of the working range (crossing the optical axis there), "
+        "for a few sphere sizes, ranges and M (use --trials 20)",
+    )
     args = ap.parse_args(argv)
     t0 = time.time()
-    if args.setups:
-        res = {"setups": run_setups(args.trials)}
+    if args.setups or args.aimed:
+        res = {"setups": run_setups(args.trials)} if args.setups else {"aimed": run_aimed(args.trials)}
         print(f"total {time.time() - t0:.0f} s")
         if args.json:
             Path(args.json).write_text(json.dumps(res, indent=2))
