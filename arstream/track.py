@@ -85,7 +85,6 @@ class TrackerConfig:
     sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
     sweep_peak: float = 1.2  # its support over the best support half the range away
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
-    k1_motion: float = 0.012  # the lens is learnt only from frames whose pan moved at most this share of the width
 
 
 def _hump_centre(x: np.ndarray, y: np.ndarray, k: int) -> float | None:
@@ -310,8 +309,7 @@ class Tracker:
         self._centres: list[np.ndarray] = []
         self._centre_cur: np.ndarray | None = None
         self.k1: float | None = None  # None: unknown yet; 0: no distortion
-        self._k1_samples: list[float] = []  # from steady frames
-        self._k1_moving: list[float] = []  # from frames in a pan
+        self._k1_samples: list[float] = []
         self._prev_thumb: np.ndarray | None = None
         self._kf: KalmanFilter | None = None
         self._coast = 0
@@ -516,7 +514,7 @@ class Tracker:
                 return self._estimate(index, pts, "tracked", pred_cam, 0.3 * (1 - self._coast / (self.cfg.max_coast + 1)), centre)
             self.reset()
             return CameraEstimate.lost(index, pts, reason="no camera")
-        self._learn(meas, self._pan_motion(index, meas.camera))
+        self._learn(meas)
         centre = self.centre if self.centre is not None else meas.camera.center
         self._centre_cur = centre
         z = _ptz_vector(meas.camera, centre)
@@ -564,13 +562,6 @@ class Tracker:
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
         cam = self._camera_from_state(self._kf.x, centre)
         return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
-
-    def _pan_motion(self, index: int, cam: Camera) -> float:
-        """Pixels per frame the pan moved from the last measurement to ``cam`` (0 without one)."""
-        if self._last_z is None or index <= self._last_z[0]:
-            return 0.0
-        pan = ptr_from_rotation(cam.R)[0]
-        return abs(_wrap(pan - self._last_z[1][0])) * cam.focal / (index - self._last_z[0])
 
     def _pan_sweep(self, pred: Camera, lidx: LineIndex, image: np.ndarray | None = None) -> Refinement | None:
         """Re-find the camera after a pan the filter did not follow: score pan angles
@@ -668,9 +659,8 @@ class Tracker:
     def _want_k1(self) -> bool:
         return self.k1 is None or self.k1 != 0.0
 
-    def _learn(self, r: Refinement, motion: float = 0.0) -> None:
-        """Update the tripod centre and the lens distortion from a confident measurement
-        (``motion``: pixels per frame the pan moved since the last one)."""
+    def _learn(self, r: Refinement) -> None:
+        """Update the tripod centre and the lens distortion from a confident measurement."""
         names = list(r.params)
         if self.centre is None and "cx" in names and r.confidence >= 0.7:
             ci = [names.index(n) for n in ("cx", "cy", "cz")]
@@ -681,15 +671,10 @@ class Tracker:
                     self.centre = np.median(np.array(self._centres), axis=0)
                     self._kf = None  # restart the filter about the frozen centre
         if self.k1 != 0.0 and r.camera.dist and r.n_visible >= 250 and r.confidence >= 0.7:
-            # k1 scales like 1/f for a zoom lens: keep k1 * f samples. Steady frames'
-            # first: a pan's motion blur bends the detected lines (on the hard preset,
-            # 8-13 px per frame at 640 px doubled or tripled k1); moving frames' only
-            # while there are not 5 steady ones
-            steady = motion <= self.cfg.k1_motion * self.size[0]
-            (self._k1_samples if steady else self._k1_moving).append(r.camera.dist[0] * r.camera.focal)
-            samples = self._k1_samples if len(self._k1_samples) >= 5 else self._k1_moving + self._k1_samples
-            if (steady or len(self._k1_samples) < 5) and len(samples) >= 5:
-                med = float(np.median(samples[-15:]))
+            # k1 scales like 1/f for a zoom lens: keep k1 * f samples
+            self._k1_samples.append(r.camera.dist[0] * r.camera.focal)
+            if len(self._k1_samples) >= 5:
+                med = float(np.median(self._k1_samples[-15:]))
                 if self.k1 is None and abs(med / r.camera.focal) < 0.004:
                     self.k1 = 0.0  # no measurable distortion: stop estimating it
                 else:

@@ -394,28 +394,3 @@ def test_panned_views_are_the_panned_cameras_views():
             assert np.array_equal(inside[j], want_in)
             assert np.abs(px[j][want_in] - want_px[want_in]).max() < 1e-9
             assert inside[j].sum() > 100
-
-
-def test_lens_learnt_from_steady_frames_first():
-    # motion blur bends the detected lines, so k1 measured in a pan is biased (2-3x on
-    # the hard preset): the tracker learns the lens from steady frames, and from
-    # frames in a pan only while it has fewer than 5 steady ones
-    from arstream.solve import Refinement
-
-    def sample(k1f: float, f: float = 800.0) -> Refinement:
-        cam = camera_from_ptz(np.array([0.0, -60.0, 15.0]), PTZ(0.1, 0.3, 0.0, f), (319.5, 179.5), dist=(k1f / f,))
-        return Refinement(cam, 0.8, 0.3, 300, 240, np.eye(5), ("rx", "ry", "rz", "logf", "k1"))
-
-    tr = Tracker(640, 360)
-    fast = 0.05 * 640  # pixels per frame: a fast pan
-    for _ in range(6):
-        tr._learn(sample(-120.0), motion=fast)
-    assert tr.k1 * 800.0 == pytest.approx(-120.0)  # nothing steady yet: the pan's samples
-    for k1f in (-40.0, -42.0, -38.0, -41.0):
-        tr._learn(sample(k1f), motion=0.0)
-    assert tr.k1 * 800.0 == pytest.approx(-120.0)  # four steady samples are not enough yet
-    tr._learn(sample(-39.0), motion=0.0)
-    assert tr.k1 * 800.0 == pytest.approx(-40.0)  # five: their median, the pan's left out
-    for _ in range(10):
-        tr._learn(sample(-120.0), motion=fast)
-    assert tr.k1 * 800.0 == pytest.approx(-40.0)
