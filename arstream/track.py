@@ -474,6 +474,7 @@ class Tracker:
                 elif image is not None and self.centre is not None:
                     meas = self._pan_by_brightness(meas, image)
         source = "track"
+        swept_rates = None  # the filter's rates when a sweep restarts it
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
             # and the prediction falls behind; search the pan angle, which such a move changes
@@ -521,7 +522,7 @@ class Tracker:
         Rz = self._measurement_noise(meas)
         if self._kf is None:
             rate = None
-            if source == "sweep" and self._last_z is not None:
+            if swept_rates is not None and self._last_z is not None:
                 # panning on at the pace since the last measurement, not from rest; tilt,
                 # roll and zoom at the filter's rates (two blurred frames would make them noise)
                 rate = swept_rates
@@ -602,8 +603,8 @@ class Tracker:
         return self._pan_by_brightness(r, image) if image is not None else r
 
     def _pan_by_brightness(self, r: Refinement, image: np.ndarray) -> Refinement:
-        """Set the pan of a swept measurement ``r`` where the projected markings lie on
-        the brightest structure across the image rows.
+        """Set the pan of a measurement ``r`` (swept, or accepted on few line pixels)
+        where the projected markings lie on the brightest structure across the rows.
 
         In a whip pan the markings across the motion (the halfway line, the sides
         of the centre circle) are smeared into wide faint bands that the ridge
@@ -613,7 +614,10 @@ class Tracker:
         mid-exposure position: the mean of the frame's brightness above its
         running horizontal mean (61 px), taken along the projected markings,
         peaks at the right pan. Pans within ``sweep_fine`` of the width around
-        ``r`` are scored a pixel apart; the peak is refined by a parabola."""
+        ``r`` are scored a pixel apart; the pan is the midpoint of the score's
+        half-height crossings (:func:`_hump_centre`: a band as wide as the blur
+        gives a flat, uneven top), or its parabolic peak when the score does not
+        fall to half inside the window."""
         c = self.cfg
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         g = gray.astype(np.float32)

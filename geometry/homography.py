@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from geometry.conics import normalize_conic
-from geometry.lines import _hartley_batch, _unit_lines, hartley_normalization, normalize_line
+from geometry.lines import _hartley_batch, _unit_lines, _zero_lines, hartley_normalization, normalize_line
 
 __all__ = [
     "homography_from_points",
@@ -211,8 +211,8 @@ def homography_from_lines(src_lines, dst_lines) -> np.ndarray:
         raise ValueError(f"line arrays must both be (N, 3), got {Ls.shape} and {Ld.shape}")
     if len(Ls) < 4:
         raise ValueError(f"a homography needs at least 4 line correspondences, got {len(Ls)}")
-    for l in np.concatenate([Ls, Ld]):
-        normalize_line(l)  # (raises on a zero vector; the batch scales them)
+    if _zero_lines(Ls).any() or _zero_lines(Ld).any():
+        raise ValueError("line vector is zero")
     H, ok = homographies_from_lines(Ls[None], Ld[None])
     if not ok[0]:
         raise ValueError("degenerate lines (concurrent or repeated): homography undefined")

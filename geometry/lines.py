@@ -126,9 +126,14 @@ def normalize_line(line) -> np.ndarray:
     l = np.asarray(line, dtype=np.float64)
     if l.shape != (3,):
         raise ValueError(f"line must be (3,), got {l.shape}")
-    if np.hypot(l[0], l[1]) < _EPS * max(1.0, abs(l[2])) and abs(l[2]) < _EPS:
+    if _zero_lines(l):
         raise ValueError("line vector is zero")
     return _unit_lines(l)
+
+
+def _zero_lines(L: np.ndarray) -> np.ndarray:
+    """Which of the lines (..., 3) are zero vectors (no line at all)."""
+    return (np.hypot(L[..., 0], L[..., 1]) < _EPS * np.maximum(1.0, np.abs(L[..., 2]))) & (np.abs(L[..., 2]) < _EPS)
 
 
 def _unit_lines(L: np.ndarray) -> np.ndarray:
