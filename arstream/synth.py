@@ -210,6 +210,12 @@ class _Player:
     height: float
 
 
+def _repeat_columns(tex: np.ndarray, width: int) -> np.ndarray:
+    """``tex`` (h, w, 3) repeated side by side to ``width`` columns (cropped)."""
+    reps = -(-width // tex.shape[1])
+    return np.ascontiguousarray(np.tile(tex, (1, reps, 1))[:, :width])
+
+
 @dataclass
 class _Plane:
     """A textured rectangle in 3-D: texel (u, v) -> origin + u * du + v * dv (metres)."""
@@ -278,14 +284,20 @@ class SynthClip:
         planes = []
         board_d, stand_d, rise, depth = 4.0, 6.0, 22.0, 40.0
         slope = np.array([0.0, depth, rise]) / np.hypot(depth, rise)
-        far_len = 2 * (L + stand_d + 12)
+        # each stand runs on to the far edge of the ones beside it (the ramps lean
+        # outward by ``depth``), so no corner gap shows the grass behind; the
+        # textures are drawn at the old lengths and repeated (the same random
+        # draws, so every clip's cameras and players stay as they were)
+        far_len, far_full = 2 * (L + stand_d + 12), 2 * (L + stand_d + depth)
         tex = _crowd_texture(rng, int(far_len * ppm_c), int(np.hypot(depth, rise) * ppm_c), blob=1.6)
-        planes.append(_Plane(tex[::-1], np.array([-far_len / 2, W + stand_d, 0.0]), np.array([1.0, 0, 0]) / ppm_c, slope / ppm_c))
-        side_len = 2 * (W + stand_d + 12)
+        tex = _repeat_columns(tex, int(far_full * ppm_c))
+        planes.append(_Plane(tex[::-1], np.array([-far_full / 2, W + stand_d, 0.0]), np.array([1.0, 0, 0]) / ppm_c, slope / ppm_c))
+        side_len, side_full = 2 * (W + stand_d + 12), 2 * (W + stand_d + depth)
         for sgn in (-1.0, 1.0):
             tex = _crowd_texture(rng, int(side_len * ppm_c), int(np.hypot(depth, rise) * ppm_c), blob=1.6)
+            tex = _repeat_columns(tex, int(side_full * ppm_c))
             sl = np.array([sgn * depth, 0.0, rise]) / np.hypot(depth, rise)
-            planes.append(_Plane(tex[::-1], np.array([sgn * (L + stand_d), -side_len / 2, 0.0]), np.array([0, 1.0, 0]) / ppm_c, sl / ppm_c))
+            planes.append(_Plane(tex[::-1], np.array([sgn * (L + stand_d), -side_full / 2, 0.0]), np.array([0, 1.0, 0]) / ppm_c, sl / ppm_c))
         # boards: vertical, 1 m high, facing the pitch
         ppm_b = 40.0
         boards = []
