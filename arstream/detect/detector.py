@@ -13,7 +13,7 @@ from geometry.lines import fit_line
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
 from .results import DetectedEllipse, DetectedLine, Detections
-from .ridges import RidgePoints, ridge_points
+from .ridges import RidgePoints, band_centres, ridge_points
 from .segments import group_lines
 
 __all__ = ["Detector", "detect"]
@@ -121,13 +121,15 @@ class Detector:
         self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
 
     # -----------------------------------------------------------------------------
-    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None):
+    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None, place=None):
         """Add the ridge points ``extra`` found on the working image resized by
         1 / ``scale`` (sx, sy), where the points so far (working pixels, (N, 2),
         normals (N, 2)) found nothing nearby (within 2 cells of the coarse grid).
         ``min_abs_nx``: keep only those whose normal (in working pixels) is at
         least this horizontal; ``block``: a working-size uint8 mask of where
-        points are not added, instead of the neighbourhood of ``pts``."""
+        points are not added, instead of the neighbourhood of ``pts``; ``place``:
+        a function ``(points, normals) -> points`` that moves the added points
+        (working pixels) before they are added."""
         if not len(extra.pts):
             return pts, nrm
         sx, sy = scale
@@ -150,7 +152,10 @@ class Detector:
             keep &= np.abs(en[:, 0]) >= min_abs_nx
         if not keep.any():
             return pts, nrm
-        return np.concatenate([pts, ep[keep]]), np.concatenate([nrm, en[keep]])
+        ep, en = ep[keep], en[keep]
+        if place is not None:
+            ep = place(ep, en)
+        return np.concatenate([pts, ep]), np.concatenate([nrm, en])
 
     def _long_runs(self, rp, size, min_rows):
         """The ridge points ``rp`` (RidgePoints, on an image of ``size`` (w, h)) in
@@ -250,7 +255,7 @@ class Detector:
         ws = self._squash_w
         gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
         rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
-        squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, bufs=self._rbufs_s)
+        squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
         squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
         if len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px
@@ -260,7 +265,16 @@ class Detector:
             if len(fine.pts):
                 blk[np.clip(np.rint(fine.pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(fine.pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
                 cv2.dilate(blk, _KH5, dst=blk)
-            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk)
+            # squashed, a band is too few pixels wide for its edges: centred between
+            # them on the working image (its bright end is a stripe's side when the
+            # line runs along a stripe's edge)
+            B = self._rbufs["blur"]  # the fine pass's smoothed luma
+            reach = int(w / ws * 11) // 2 + 5
+
+            def centred(p, n):
+                return p + band_centres(B, p, n, reach=reach)[0][:, None] * n
+
+            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk, place=centred)
         # a painted line has grass beside it; a white kit has a shirt above and
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):
