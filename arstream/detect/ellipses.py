@@ -13,7 +13,9 @@
    gradient weights, which turn the algebraic fit into an approximately
    geometric one; :func:`geometry.conics.fit_ellipse_direct`).
 5. Validation: size, shape (a ground circle seen from above: minor axis
-   roughly vertical, b/a well under 1), support around the perimeter
+   roughly vertical, b/a well under 1 but above 0.1, i.e. seen from at least
+   about 6 degrees above the pitch: the tip of a flatter one fits two lines
+   meeting at a corner), support around the perimeter
    (coverage in arc-length-weighted angular bins, each needing a real share
    of its expected points), residual, and the ellipse lying on the pitch.
 
@@ -455,7 +457,7 @@ def _validate(e: Ellipse, P_full, rms, size, visible, is_arc, *, s_full, min_poi
     a, b = e.axes
     if len(P_full) < min_points:
         return False, 0.0, 0.0, ""
-    if not (0.06 * W < a < 1.5 * W and b > 0.016 * W and 0.05 < b / a < 0.85 and abs(e.angle) < np.radians(30)):
+    if not (0.06 * W < a < 1.5 * W and b > 0.016 * W and 0.1 < b / a < 0.85 and abs(e.angle) < np.radians(30)):
         return False, 0.0, 0.0, ""
     if rms > max_rms * s_full:
         return False, 0.0, 0.0, ""
