@@ -514,6 +514,7 @@ def refine_camera(
     radii=(30.0, 15.0, 6.0, 3.0),
     max_points: int = 700,
     staged: bool = True,
+    fixed_pan: bool = False,
 ) -> Refinement:
     """Refine a camera against detected line pixels.
 
@@ -530,6 +531,9 @@ def refine_camera(
     max_points : at most this many model points are used per round (evenly thinned)
     staged : without a fixed ``center``, first refine rotation and f about the
         initial centre, then the full pose
+    fixed_pan : with a fixed ``center``, keep the pan angle (the optical axis's
+        azimuth about the pitch's vertical) and solve only tilt, roll and f (and
+        k1): for a frame whose pan was set otherwise (a whip pan's brightness)
 
     Returns
     -------
@@ -556,18 +560,23 @@ def refine_camera(
         c0 = camera.center
         cam0 = camera
     k1_0 = cam0.dist[0] if cam0.dist else 0.0
-    names = ["rx", "ry", "rz"] + ([] if center is not None else ["cx", "cy", "cz"]) + ["logf"] + (["k1"] if estimate_k1 else [])
+    if fixed_pan and center is None:
+        raise ValueError("fixed_pan needs a fixed center")
+    rot = ["tilt", "roll"] if fixed_pan else ["rx", "ry", "rz"]
+    nr = len(rot)
+    names = rot + ([] if center is not None else ["cx", "cy", "cz"]) + ["logf"] + (["k1"] if estimate_k1 else [])
     i_f = names.index("logf")
     i_k = names.index("k1") if estimate_k1 else None
     free = center is None
     # state: rotation (left perturbation about R_ref, reset every round), centre, log f, k1
     R_ref = cam0.R
+    Bw = np.eye(3)  # rotation parameters -> left perturbation (camera frame)
     C_cur = c0.copy()
     logf = float(np.log(cam0.focal))
     k1_cur = float(k1_0)
 
     def unpack(th):
-        R = cv2.Rodrigues(th[:3])[0] @ R_ref
+        R = cv2.Rodrigues(Bw @ th[:nr])[0] @ R_ref
         C = th[3:6] if free else C_cur
         return R, C, float(np.exp(th[i_f])), (float(th[i_k]) if estimate_k1 else k1_cur)
 
@@ -607,6 +616,12 @@ def refine_camera(
         nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
         nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
         R_ref = cam.R
+        if fixed_pan:
+            # tilt: about the horizontal axis across the optical axis; roll: about the
+            # optical axis (camera z); neither turns the axis about the vertical
+            d = R_ref[2]  # optical axis in the pitch frame
+            h = np.cross([0.0, 0.0, 1.0], d)
+            Bw = np.column_stack([R_ref @ (h / max(np.linalg.norm(h), 1e-12)), [0.0, 0.0, 1.0]])
 
         def fun(th):
             R, C, f, k1 = unpack(th)
@@ -636,10 +651,9 @@ def refine_camera(
             # dr/dXc = gu * du/dXc + gv * dv/dXc
             dX = np.column_stack([gu * iz, gv * iz, -(gu * u + gv * v) * iz])
             J = np.empty((len(X), len(names)))
-            # left rotation perturbation: dXc/domega = -[Xc]x
-            J[:, 0] = dX[:, 2] * y - dX[:, 1] * z
-            J[:, 1] = dX[:, 0] * z - dX[:, 2] * x
-            J[:, 2] = dX[:, 1] * x - dX[:, 0] * y
+            # left rotation perturbation: dXc/domega = -[Xc]x, omega = Bw theta
+            Jw = np.column_stack([dX[:, 2] * y - dX[:, 1] * z, dX[:, 0] * z - dX[:, 2] * x, dX[:, 1] * x - dX[:, 0] * y])
+            J[:, :nr] = Jw @ Bw if fixed_pan else Jw
             if free:
                 J[:, 3:6] = -(dX @ R)
             xd_u = u * s

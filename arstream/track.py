@@ -454,11 +454,22 @@ class Tracker:
             pred_cam = self._camera_from_state(kf.x, centre)
             for radii in ((4.0,), (25.0, 10.0, 4.0, 2.5)):
                 # a close prediction needs one short round (a second when it moved the
-                # camera, matches being nearest neighbours); a fast pan a wider search
+                # camera, matches being nearest neighbours); a fast pan a wider search.
+                # A round that moved the camera by more than 2 px had not converged (a
+                # sudden change of pan speed): up to two more at the same radius
+                # before the last, narrower one, which would settle on a partial fit
                 try:
                     r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
-                    if len(radii) == 1 and _image_shift(pred_cam, r.camera, centre, self.size) > 1.0:
-                        r = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(2.5,), max_points=400)
+                    if len(radii) == 1:
+                        moved = step = _image_shift(pred_cam, r.camera, centre, self.size)
+                        for _ in range(2):
+                            if step <= 2.0:
+                                break
+                            r2 = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
+                            step = _image_shift(r.camera, r2.camera, centre, self.size)
+                            r = r2
+                        if moved > 1.0:
+                            r = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(2.5,), max_points=400)
                 except ValueError:
                     continue
                 if meas is None or r.confidence > meas.confidence:
@@ -472,7 +483,7 @@ class Tracker:
                 if meas.confidence < self.cfg.accept_low or explained_share(meas.camera, lidx, self.size, self.model) < self.cfg.min_explained:
                     meas = None
                 elif image is not None and self.centre is not None:
-                    meas = self._pan_by_brightness(meas, image)
+                    meas = self._pan_by_brightness(meas, image, lidx)
         source = "track"
         swept_rates = None  # the filter's rates when a sweep restarts it
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
@@ -593,6 +604,7 @@ class Tracker:
             r = refine_camera(start, lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=(10.0, 4.0, 2.5), max_points=400)
         except ValueError:
             return None
+        trusted = True
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
             if image is None or support[k] < c.sweep_accept:
                 return None
@@ -600,9 +612,10 @@ class Tracker:
             # prediction's, which change slowly, and set only the pan
             r = replace(r, camera=start)
             self.stats["pan_only"] += 1
-        return self._pan_by_brightness(r, image) if image is not None else r
+            trusted = False
+        return self._pan_by_brightness(r, image, lidx if trusted else None) if image is not None else r
 
-    def _pan_by_brightness(self, r: Refinement, image: np.ndarray) -> Refinement:
+    def _pan_by_brightness(self, r: Refinement, image: np.ndarray, lidx: LineIndex | None = None) -> Refinement:
         """Set the pan of a measurement ``r`` (swept, or accepted on few line pixels)
         where the projected markings lie on the brightest structure across the rows.
 
@@ -617,7 +630,9 @@ class Tracker:
         ``r`` are scored a pixel apart; the pan is the midpoint of the score's
         half-height crossings (:func:`_hump_centre`: a band as wide as the blur
         gives a flat, uneven top), or its parabolic peak when the score does not
-        fall to half inside the window."""
+        fall to half inside the window. With the line pixels (``lidx``), tilt, roll
+        and f are then refined again at that pan: the first refinement, with the
+        pan loose, bent them to make up for it (by 1-2 px)."""
         c = self.cfg
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         g = gray.astype(np.float32)
@@ -651,7 +666,15 @@ class Tracker:
             a, b, d = score[k - 1], score[k], score[k + 1]
             den = a - 2 * b + d
             dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
-        return replace(r, camera=camera(dx))
+        cam = camera(dx)
+        if lidx is not None and abs(dx) >= 0.5:
+            try:
+                rf = refine_camera(cam, lidx, self.size, self.model, center=self.centre, fixed_pan=True, radii=(4.0, 2.5), max_points=400)
+            except ValueError:
+                rf = None
+            if rf is not None and rf.confidence >= r.confidence - 0.05:
+                cam = rf.camera
+        return replace(r, camera=cam)
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         info["centre"] = np.array(centre, dtype=np.float64)

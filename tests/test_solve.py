@@ -110,6 +110,30 @@ def test_refinement_recovers_a_perturbed_camera(preset):
         assert abs(r.camera.dist[0] - cam.dist[0]) < 0.01
 
 
+@pytest.mark.parametrize("preset", ["wide", "hard"])
+def test_refinement_with_the_pan_held(preset):
+    # a whip pan's frame: the pan comes from the smeared bands' brightness, tilt,
+    # roll and f from the line pixels at that pan. From a start off in tilt, roll
+    # and f (pan right) the refinement recovers them; from a start off in pan too
+    # it keeps that pan and does not move it
+    clip = SynthClip(preset, seed=1, frames=250)
+    cam = clip.camera(130)
+    index = LineIndex(truth_detections(cam, seed=5).line_points)
+    c, p = ptz_from_camera(cam)
+    for d_pan in (0.0, 3.0):
+        start = PTZ(p.pan + d_pan / p.f, p.tilt - 4.0 / p.f, p.roll + 3.0 / p.f, p.f * 1.02)
+        init = camera_from_ptz(c, start, cam.principal_point, dist=cam.dist)
+        r = refine_camera(init, index, SIZE, MODEL, center=c, fixed_pan=True, radii=(6.0, 2.5))
+        _, q = ptz_from_camera(r.camera)
+        assert r.params == ("tilt", "roll", "logf")
+        assert abs(q.pan - start.pan) * p.f < 0.01  # held (to second order in the tilt and roll steps)
+        if d_pan == 0.0:
+            assert abs(q.tilt - p.tilt) * p.f < 0.3 and abs(q.roll - p.roll) * p.f < 0.3  # (from 4 and 3 px off)
+            assert abs(q.f / p.f - 1) < 2e-3  # (from 2 % off)
+    with pytest.raises(ValueError, match="fixed_pan needs a fixed center"):
+        refine_camera(cam, index, SIZE, MODEL, fixed_pan=True)
+
+
 def test_line_initialiser_on_a_penalty_area_view():
     clip = SynthClip("penalty", seed=3, frames=100)
     cam = clip.camera(50)
@@ -260,8 +284,11 @@ def test_tracker_keeps_up_with_a_whip_pan():
     # pan sweep re-finds the camera, its pan set by the smeared bands' brightness
     errors, stats = whip_pan_errors()
     assert stats["swept"] >= 2
-    assert np.all(errors < 8.0), errors.round(1)
-    assert np.median(errors) < 2.0
+    # (at the whip's onset (frame 154) a first refinement that had not converged used
+    # to settle 2.5 px off; swept frames' tilt bent to make up for a loose pan:
+    # 5 px at worst before both were fixed)
+    assert np.all(errors < 3.0), errors.round(1)
+    assert np.median(errors) < 1.0
     # without the sweep the filter coasts behind the pan, drifting tens of pixels off
     # (80-250 px, depending on when a re-initialisation catches it)
     errors, stats = whip_pan_errors(TrackerConfig(sweep_range=0.0))
