@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["shrink"]
+__all__ = ["sample_bilinear", "shrink"]
 
 
 def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None) -> np.ndarray:
@@ -47,3 +47,34 @@ def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None
         img = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
         return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_LINEAR)
     return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_AREA)
+
+
+def sample_bilinear(img: np.ndarray, q: np.ndarray, *, border: int = cv2.BORDER_CONSTANT) -> np.ndarray:
+    """Bilinear samples of a single-channel image at pixels ``q`` (..., 2) (x, y).
+
+    Parameters
+    ----------
+    img : (H, W) uint8 or float32 image
+    q : (..., 2) pixel coordinates
+    border : OpenCV border mode for samples outside the image (constant: 0)
+
+    Returns
+    -------
+    (...) float32 (uint8 for a uint8 image) samples, the shape of ``q`` without its last axis.
+
+    One cv2.remap; its maps may not be 32767 wide or high, so the points go in
+    rows of 4096.
+    """
+    q = np.asarray(q)
+    shape = q.shape[:-1]
+    q = q.reshape(-1, 2)
+    m = len(q)
+    if m == 0:
+        return np.zeros(shape, img.dtype)
+    cols = 4096
+    rows = -(-m // cols)
+    mx = np.zeros(rows * cols, np.float32)
+    my = np.zeros(rows * cols, np.float32)
+    mx[:m], my[:m] = q[:, 0], q[:, 1]
+    return cv2.remap(img, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR, borderMode=border).ravel()[:m].reshape(shape)
+

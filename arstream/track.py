@@ -52,7 +52,7 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
-from arstream.imaging import shrink
+from arstream.imaging import sample_bilinear, shrink
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
@@ -228,20 +228,6 @@ def _supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: floa
     return hits / np.maximum(counts, 1)
 
 
-def _sample_bilinear(img: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Bilinear samples (M,) of a float32 image at pixels ``q`` (M, 2) (cv2.remap,
-    whose maps may not be 32767 wide: the points go in rows of 4096)."""
-    m = len(q)
-    if m == 0:
-        return np.zeros(0, np.float32)
-    cols = 4096
-    rows = -(-m // cols)
-    mx = np.zeros(rows * cols, np.float32)
-    my = np.zeros(rows * cols, np.float32)
-    mx[:m], my[:m] = q[:, 0], q[:, 1]
-    return cv2.remap(img, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR).ravel()[:m]
-
-
 def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, points: np.ndarray, size, margin: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     """The model samples ``points`` (N, 3) through ``cam`` turned in pan about the tripod ``centre`` by
     each of ``offsets_px`` (D,) (pixels at its focal length; tilt, roll, f and the
@@ -277,6 +263,15 @@ def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, point
     px[near, 1] = f * ys + cy
     inside = near & (px[..., 0] >= margin) & (px[..., 0] <= W - 1 - margin) & (px[..., 1] >= margin) & (px[..., 1] <= H - 1 - margin)
     return px, inside
+
+
+def _window_points(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, points: np.ndarray, size) -> np.ndarray:
+    """The model samples among ``points`` (N, 3) that come into view (or near it) at
+    some pan of ``cam`` within the window ``offsets_px`` (sorted, pixels; see
+    :func:`_panned_views`): a sample moves one way across the frame as the pan
+    turns, so its views at the window's ends and middle tell."""
+    _, near = _panned_views(cam, centre, offsets_px[[0, len(offsets_px) // 2, -1]], points, size, margin=-0.1 * size[0])
+    return points[near.any(axis=0)]
 
 
 class Tracker:
@@ -315,6 +310,7 @@ class Tracker:
         self._coast = 0
         self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
         self._gated_prev = False  # the previous frame's measurement was gated
+        self._swept_prev = False  # the previous frame's measurement came from a pan sweep
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
@@ -375,7 +371,7 @@ class Tracker:
         self._kf = None
         self._coast = 0
         self._conf_ref = 1.0
-        self._gated_prev = False
+        self._gated_prev = self._swept_prev = False
         self._last_z = None
         if not keep_centre:
             self.centre = None
@@ -449,21 +445,24 @@ class Tracker:
         pred_cam = None
         meas: Refinement | None = None
         centre = self.centre if self.centre is not None else self._centre_cur
+        swept_prev, self._swept_prev = self._swept_prev, False
         if kf is not None:
             kf.predict()
             pred_cam = self._camera_from_state(kf.x, centre)
-            for radii in ((4.0,), (25.0, 10.0, 4.0, 2.5)):
+            # (in a whip pan that the sweep is following, the wide search only fails)
+            for radii in ((4.0,),) if swept_prev else ((4.0,), (25.0, 10.0, 4.0, 2.5)):
                 # a close prediction needs one short round (a second when it moved the
                 # camera, matches being nearest neighbours); a fast pan a wider search.
                 # A round that moved the camera by more than 2 px had not converged (a
                 # sudden change of pan speed): up to two more at the same radius
                 # before the last, narrower one, which would settle on a partial fit
+                # (unless it found too little to be a measurement: the wide search is next)
                 try:
                     r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
                     if len(radii) == 1:
                         moved = step = _image_shift(pred_cam, r.camera, centre, self.size)
                         for _ in range(2):
-                            if step <= 2.0:
+                            if step <= 2.0 or r.confidence < self.cfg.accept_low:
                                 break
                             r2 = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
                             step = _image_shift(r.camera, r2.camera, centre, self.size)
@@ -493,6 +492,7 @@ class Tracker:
             if meas is not None:
                 source = "sweep"
                 self.stats["swept"] += 1
+                self._swept_prev = True
                 swept_rates = self._kf.x[1::2, 0].copy()
                 self._kf = None  # re-anchored: restart the filter from this measurement
         if meas is None:
@@ -590,7 +590,8 @@ class Tracker:
         offsets = np.arange(-n, n + 1)
         dist = (self._k1_for(pred.focal),) if self.k1 else ()
         base = camera_from_ptz(self.centre, ptz, self.pp, dist=dist)
-        px, inside = _panned_views(base, self.centre, offsets * step_px, self.model.points, self.size)
+        pts = _window_points(base, self.centre, offsets * step_px, self.model.points, self.size)
+        px, inside = _panned_views(base, self.centre, offsets * step_px, pts, self.size)
         support = _supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
@@ -627,7 +628,7 @@ class Tracker:
         mid-exposure position: the mean of the frame's brightness above its
         running horizontal mean (61 px), taken along the projected markings,
         peaks at the right pan. Pans within ``sweep_fine`` of the width around
-        ``r`` are scored a pixel apart; the pan is the midpoint of the score's
+        ``r`` are scored 2 px apart; the pan is the midpoint of the score's
         half-height crossings (:func:`_hump_centre`: a band as wide as the blur
         gives a flat, uneven top), or its parabolic peak when the score does not
         fall to half inside the window. With the line pixels (``lidx``), tilt, roll
@@ -635,27 +636,22 @@ class Tracker:
         pan loose, bent them to make up for it (by 1-2 px)."""
         c = self.cfg
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        g = gray.astype(np.float32)
-        bright = cv2.subtract(g, cv2.blur(g, (61, 1)))
-        np.maximum(bright, 0.0, out=bright)
+        bright = cv2.subtract(gray, cv2.blur(gray, (61, 1))).astype(np.float32)  # (saturates at 0)
         ptz = PTZ(*ptr_from_rotation(r.camera.R), f=r.camera.focal)
         dist = r.camera.dist
-        n = max(int(round(c.sweep_fine * self.size[0])), 1)
-        offsets = np.arange(-n, n + 1, dtype=np.float64)
+        n = max(int(round(c.sweep_fine * self.size[0] / 2)), 1)
+        offsets = 2.0 * np.arange(-n, n + 1)  # 2 px apart: the hump is a band's width across
 
         def camera(dx: float) -> Camera:
             return camera_from_ptz(self.centre, PTZ(ptz.pan + dx / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
 
-        # the samples that come into view at some pan of the window (a sample moves
-        # one way across the frame as the pan turns), at most 1200 of them
-        _, near = _panned_views(r.camera, self.centre, offsets[[0, n, -1]], self.model.points, self.size, margin=-0.1 * self.size[0])
-        pts = self.model.points[near.any(axis=0)]
-        if len(pts) > 1200:
+        pts = _window_points(r.camera, self.centre, offsets, self.model.points, self.size)
+        if len(pts) > 1200:  # at most 1200 of them
             pts = pts[np.linspace(0, len(pts) - 1, 1200).astype(np.intp)]
         px, inside = _panned_views(r.camera, self.centre, offsets, pts, self.size)
         counts = inside.sum(axis=1)
         q = px[inside].astype(np.float32)  # row-major: the pans' samples one after the other
-        vals = _sample_bilinear(bright, q)
+        vals = sample_bilinear(bright, q)
         sums = np.bincount(np.repeat(np.arange(len(offsets)), counts), weights=vals, minlength=len(offsets))
         score = np.where(counts >= 20, sums / np.maximum(counts, 1), 0.0)
         k = int(np.argmax(score))
@@ -665,7 +661,7 @@ class Tracker:
         if dx is None:
             a, b, d = score[k - 1], score[k], score[k + 1]
             den = a - 2 * b + d
-            dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
+            dx = offsets[k] + (a - d) / den if den < 0 else offsets[k]  # (2 px steps)
         cam = camera(dx)
         if lidx is not None and abs(dx) >= 0.5:
             try:

@@ -1,4 +1,4 @@
-"""arstream.imaging.shrink: the fast anti-aliased downscale of the analysis path."""
+"""arstream.imaging: the fast anti-aliased downscale of the analysis path, and bilinear sampling."""
 
 import cv2
 import numpy as np
@@ -42,3 +42,24 @@ def test_lines_keep_their_position():
 def test_refuses_to_enlarge():
     with pytest.raises(ValueError, match="shrink: target 800x600 is larger than the image 640x480"):
         shrink(np.zeros((480, 640), np.uint8), (800, 600))
+
+
+def test_sample_bilinear_matches_the_formula():
+    # any batch shape, more points than one remap map may hold (32767), and the
+    # border mode for samples off the image
+    from arstream.imaging import sample_bilinear
+
+    rng = np.random.default_rng(0)
+    img = rng.uniform(0, 255, (37, 53)).astype(np.float32)
+    q = rng.uniform(0, [52, 36], (200, 201, 2))  # 40200 points
+    x0, y0 = np.floor(q[..., 0]).astype(int), np.floor(q[..., 1]).astype(int)
+    fx, fy = q[..., 0] - x0, q[..., 1] - y0
+    x1, y1 = np.minimum(x0 + 1, 52), np.minimum(y0 + 1, 36)
+    ref = (img[y0, x0] * (1 - fx) + img[y0, x1] * fx) * (1 - fy) + (img[y1, x0] * (1 - fx) + img[y1, x1] * fx) * fy
+    out = sample_bilinear(img, q)
+    assert out.shape == (200, 201) and out.dtype == np.float32
+    assert np.abs(out - ref).max() < 0.05  # (remap's 1/32 px interpolation grid)
+    off = np.array([[-5.0, 10.0], [60.0, 3.0]])
+    assert np.all(sample_bilinear(img, off) == 0)
+    assert np.allclose(sample_bilinear(img, off, border=cv2.BORDER_REPLICATE), [img[10, 0], img[3, 52]])
+    assert sample_bilinear(img, np.zeros((0, 2))).shape == (0,)

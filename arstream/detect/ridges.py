@@ -32,6 +32,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from arstream.imaging import sample_bilinear
+
 __all__ = ["RidgePoints", "ridge_points"]
 
 _KX = np.ones((1, 3), np.uint8)
@@ -236,10 +238,8 @@ def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int)
         return np.zeros(0), np.zeros(0)
     r = int(reach)
     s = np.arange(-r, r + 1, dtype=np.float32)
-    mx = (pts[:, :1] + s * nrm[:, :1]).astype(np.float32)
-    my = (pts[:, 1:] + s * nrm[:, 1:]).astype(np.float32)
-    # (N, 2r + 1); remap takes fewer than 32767 rows at a time
-    prof = np.concatenate([cv2.remap(B, mx[k : k + 32000], my[k : k + 32000], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE) for k in range(0, n, 32000)])
+    q = np.stack([pts[:, :1] + s * nrm[:, :1], pts[:, 1:] + s * nrm[:, 1:]], axis=-1)
+    prof = sample_bilinear(B, q, border=cv2.BORDER_REPLICATE)  # (N, 2r + 1)
     # both sides at once, outward from the centre: rows 0..N-1 along +nrm, N..2N-1 along -nrm
     side = np.concatenate([prof[:, r:], prof[:, r::-1]])  # (2N, r + 1), distance 0 .. r
     base = side[:, -3:].mean(axis=1)
