@@ -628,7 +628,7 @@ class Tracker:
         mid-exposure position: the mean of the frame's brightness above its
         running horizontal mean (61 px), taken along the projected markings,
         peaks at the right pan. Pans within ``sweep_fine`` of the width around
-        ``r`` are scored 2 px apart; the pan is the midpoint of the score's
+        ``r`` are scored a pixel apart; the pan is the midpoint of the score's
         half-height crossings (:func:`_hump_centre`: a band as wide as the blur
         gives a flat, uneven top), or its parabolic peak when the score does not
         fall to half inside the window. With the line pixels (``lidx``), tilt, roll
@@ -636,11 +636,13 @@ class Tracker:
         pan loose, bent them to make up for it (by 1-2 px)."""
         c = self.cfg
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        bright = cv2.subtract(gray, cv2.blur(gray, (61, 1))).astype(np.float32)  # (saturates at 0)
+        g = gray.astype(np.float32)
+        bright = cv2.subtract(g, cv2.blur(g, (61, 1)))
+        np.maximum(bright, 0.0, out=bright)
         ptz = PTZ(*ptr_from_rotation(r.camera.R), f=r.camera.focal)
         dist = r.camera.dist
-        n = max(int(round(c.sweep_fine * self.size[0] / 2)), 1)
-        offsets = 2.0 * np.arange(-n, n + 1)  # 2 px apart: the hump is a band's width across
+        n = max(int(round(c.sweep_fine * self.size[0])), 1)
+        offsets = np.arange(-n, n + 1, dtype=np.float64)
 
         def camera(dx: float) -> Camera:
             return camera_from_ptz(self.centre, PTZ(ptz.pan + dx / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
@@ -661,7 +663,7 @@ class Tracker:
         if dx is None:
             a, b, d = score[k - 1], score[k], score[k + 1]
             den = a - 2 * b + d
-            dx = offsets[k] + (a - d) / den if den < 0 else offsets[k]  # (2 px steps)
+            dx = offsets[k] + (0.5 * (a - d) / den if den < 0 else 0.0)
         cam = camera(dx)
         if lidx is not None and abs(dx) >= 0.5:
             try:
