@@ -311,6 +311,8 @@ class Tracker:
         self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
         self._gated_prev = False  # the previous frame's measurement was gated
         self._swept_prev = False  # the previous frame's measurement came from a pan sweep
+        self._kf_at = 0  # the frame the filter's state is at
+        self._motions: dict = {}  # steps -> (F, Q)
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
@@ -321,20 +323,11 @@ class Tracker:
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
         """A filter started at the measurement ``z`` (pan, tilt, roll, log f) with noise
         ``Rz``, at rest or moving at ``rate`` (per second, same order)."""
-        dt = 1.0 / self.fps
         kf = KalmanFilter(dim_x=8, dim_z=4)
-        F1 = np.array([[1.0, dt], [0.0, 1.0]])
-        kf.F = block_diag(F1, F1, F1, F1)
+        kf.F, kf.Q = self._motion(1)
         kf.H = np.zeros((4, 8))
         for k in range(4):
             kf.H[k, 2 * k] = 1.0
-        c = self.cfg
-        kf.Q = block_diag(
-            Q_discrete_white_noise(2, dt, c.accel_pan**2),
-            Q_discrete_white_noise(2, dt, c.accel_pan**2),
-            Q_discrete_white_noise(2, dt, c.accel_roll**2),
-            Q_discrete_white_noise(2, dt, c.accel_logf**2),
-        )
         kf.x = np.zeros((8, 1))
         kf.x[0::2, 0] = z
         if rate is not None:
@@ -342,6 +335,23 @@ class Tracker:
         kf.P = np.diag([Rz[0, 0], 0.5, Rz[1, 1], 0.5, Rz[2, 2], 0.05, Rz[3, 3], 0.5])
         kf.R = Rz
         return kf
+
+    def _motion(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Transition F (8, 8) and process noise Q (8, 8) of the constant-rate model over
+        ``steps`` frame intervals (more than one where a live source dropped frames)."""
+        fq = self._motions.get(steps)
+        if fq is None:
+            dt = steps / self.fps
+            F1 = np.array([[1.0, dt], [0.0, 1.0]])
+            c = self.cfg
+            Q = block_diag(
+                Q_discrete_white_noise(2, dt, c.accel_pan**2),
+                Q_discrete_white_noise(2, dt, c.accel_pan**2),
+                Q_discrete_white_noise(2, dt, c.accel_roll**2),
+                Q_discrete_white_noise(2, dt, c.accel_logf**2),
+            )
+            fq = self._motions[steps] = (block_diag(F1, F1, F1, F1), Q)
+        return fq[0].copy(), fq[1].copy()
 
     def _camera_from_state(self, x: np.ndarray, centre: np.ndarray) -> Camera:
         x = np.asarray(x).ravel()
@@ -447,7 +457,10 @@ class Tracker:
         centre = self.centre if self.centre is not None else self._centre_cur
         swept_prev, self._swept_prev = self._swept_prev, False
         if kf is not None:
+            # over the frames since the filter's last step (a live source drops frames)
+            kf.F, kf.Q = self._motion(min(max(index - self._kf_at, 1), 25))
             kf.predict()
+            self._kf_at = index
             pred_cam = self._camera_from_state(kf.x, centre)
             # (in a whip pan that the sweep is following, the wide search only fails)
             for radii in ((4.0,),) if swept_prev else ((4.0,), (25.0, 10.0, 4.0, 2.5)):
@@ -539,7 +552,7 @@ class Tracker:
                 rate = swept_rates
                 rate[0] = _wrap(z[0] - self._last_z[1][0]) * self.fps / max(index - self._last_z[0], 1)
             self._kf = self._new_filter(z, Rz, rate)
-            self._kf_id = index
+            self._kf_id = self._kf_at = index
         else:
             kf = self._kf
             y = z - (kf.H @ kf.x).ravel()
@@ -552,7 +565,7 @@ class Tracker:
                 # the model is wrong (a sudden pan), not the measurements; restart from it
                 self.stats["reanchored"] += 1
                 self._kf = kf = self._new_filter(z, Rz)
-                self._kf_id = index
+                self._kf_id = self._kf_at = index
             elif gated:
                 # an outlier against the motion model: carry the prediction instead
                 self.stats["gated"] += 1
