@@ -251,13 +251,18 @@ class DetectStage(Stage):
     Without a detector module every item passes with ``detections=None``
     (``available`` is False). ``item.matte`` is the detector's grass mask, at
     the analysis size (the render stage scales it up). A ``detector`` given
-    instead has the same ``process(image, lazy=True)`` contract.
+    instead has the same ``process(image, lazy=True)`` contract. ``motion``: a
+    callable giving the tracker's sideways image motion as of a frame (analysis
+    pixels per frame, or None), passed on to the detector as of two frames back
+    (it skips the search for lines smeared by a fast pan when the image moves
+    slowly).
     """
 
     name = "detect"
 
-    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None):
+    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None, motion=None):
         self.analysis = analysis or Analysis(width, height)
+        self.motion = motion  # (frame) -> sideways image motion then (analysis px/frame) or None
         if detector is None:
             cls = _optional("arstream.detect", "Detector")
             detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
@@ -268,10 +273,30 @@ class DetectStage(Stage):
         if self.detector is not None:
             # lines and ellipses on demand: a tracker following a locked camera
             # needs only the line points (re-initialisation asks for the rest)
-            det = self.detector.process(self.analysis.image(item), lazy=True)
+            # as of two frames back: what a tracker one frame behind (the detector on
+            # its own thread) has surely solved, so threaded or not, the same hint
+            motion = self.motion(item.index - 2) if self.motion is not None else None
+            det = self.detector.process(self.analysis.image(item), lazy=True, **({} if motion is None else {"motion": motion}))
             item.detections = det
             item.matte = _matte_of(det)
         return [item]
+
+
+def _boxed(box: list, stage):
+    """Put ``stage`` in ``box`` (for stages built before it to reach) and return it."""
+    box.append(stage)
+    return stage
+
+
+def _motion_of(box: list):
+    """The sideways image motion of the tracker of the TrackStage in ``box`` (filled
+    once it is built), as a callable for :class:`DetectStage`."""
+
+    def motion(frame: int) -> float | None:
+        tracker = box[0].tracker if box else None
+        return tracker.image_motion(frame) if tracker is not None and hasattr(tracker, "image_motion") else None
+
+    return motion
 
 
 def _matte_of(det) -> np.ndarray | None:
@@ -1239,10 +1264,11 @@ def process(
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
         an = Analysis(W, H, analysis_width)
+        track_box: list = []
         stages = _build(
             [
-                lambda: _overlapped(DetectStage(W, H, analysis=an), overlap and not single),
-                lambda: TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an),
+                lambda: _overlapped(DetectStage(W, H, analysis=an, motion=_motion_of(track_box)), overlap and not single),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -1356,6 +1382,7 @@ def stream(
         rt = src.is_live if realtime is None else bool(realtime)
         an = Analysis(W, H, analysis_width)
         logger_box: list = []
+        track_box: list = []
 
         def make_logger():
             if mode is None:
@@ -1366,8 +1393,8 @@ def stream(
 
         stages = _build(
             [
-                lambda: DetectStage(W, H, analysis=an),
-                lambda: TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an),
+                lambda: DetectStage(W, H, analysis=an, motion=_motion_of(track_box)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an)),
                 make_logger,
                 lambda: RenderStage(W, H, scene),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),

@@ -313,6 +313,7 @@ class Tracker:
         self._swept_prev = False  # the previous frame's measurement came from a pan sweep
         self._kf_at = 0  # the frame the filter's state is at
         self._motions: dict = {}  # steps -> (F, Q)
+        self._motions_at: deque = deque(maxlen=8)  # (frame, sideways image motion px/frame or None)
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
@@ -376,6 +377,20 @@ class Tracker:
         return np.diag([va, va, va, vf])
 
     # --- public API --------------------------------------------------------------
+    def image_motion(self, frame: int | None = None) -> float | None:
+        """How far the image moved sideways per frame (pixels, from the filter's pan
+        rate and focal length) as of frame ``frame`` (default: the last one solved),
+        or None where unknown (no filter running then, or a frame not solved or
+        long gone). Asked by frame, the answer does not depend on how far the
+        tracker has got: a detector one frame ahead on another thread gets the
+        same hint as one in step."""
+        if frame is None:
+            return self._motions_at[-1][1] if self._motions_at else None
+        for k, m in reversed(self._motions_at):
+            if k == frame:
+                return m
+        return None
+
     def reset(self, *, keep_centre: bool = True) -> None:
         """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
         self._kf = None
@@ -392,6 +407,8 @@ class Tracker:
         in live mode, lagging by ``lag`` frames in offline mode)."""
         est = self._solve(index, pts, image, detections)
         self.stats[est.status] += 1
+        kf = self._kf
+        self._motions_at.append((index, None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)))
         if self.lag == 0:
             return [est]
         self._window.append(est)

@@ -476,3 +476,18 @@ def test_ellipse_shape_bounds(ratio, ok):
     P = np.column_stack([640 + c * x - s_ * y, 400 + s_ * x + c * y])
     res = _validate(e, P, 0.1, (1280, 720), lambda p: np.ones(len(p), bool), None, s_full=2.0, min_points=30, min_coverage=0.15, min_visible=0.55, max_rms=0.8)
     assert res[0] is ok
+
+
+def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
+    # the pass over the horizontally squashed frame finds the halfway line smeared by
+    # a fast pan (hard preset, frame 30: ~16 px per frame at 720p); a caller that
+    # knows the image moves slowly (a tracker's pan rate) may skip it, one that
+    # knows it moves fast, or does not know, may not
+    clip = SynthClip("hard", seed=11, frames=250, size=SIZE)
+    img = clip.render(30)
+    truth = true_points(clip.truth(30).camera, "halfway_line", spacing=0.05)
+    near = {}
+    for motion in (None, 20.0, 2.0):
+        d = Detector(*SIZE).process(img, motion=motion)
+        near[motion] = int(np.sum(nearest(d.line_points, truth) < 3.0))
+    assert near[None] == near[20.0] > near[2.0] + 20

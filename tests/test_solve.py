@@ -450,3 +450,20 @@ def test_tracker_predicts_over_dropped_frames():
         assert est.status == "ok", (i, est.status)
         assert frame_error(clip.camera(i), an.camera(est.camera), SIZE, samples, PITCH.symmetries).mean < 2.0, i
     assert tr.stats["gated"] == 0
+
+
+def test_image_motion_by_frame():
+    # the sideways image motion the tracker reports per solved frame (the detector's
+    # hint, asked two frames back so that threaded or not it gets the same answer)
+    clip = SynthClip("hard", seed=11, frames=250)
+    tr = Tracker(*SIZE, fps=clip.fps)
+    assert tr.image_motion() is None and tr.image_motion(0) is None
+    for i in range(12):
+        tr.process(i, i / clip.fps, None, truth_detections(clip.camera(i), seed=i))
+    c0, p0 = ptz_from_camera(clip.camera(10))
+    c1, p1 = ptz_from_camera(clip.camera(11))
+    true_motion = abs(p1.pan - p0.pan) * p1.f  # px per frame
+    assert tr.image_motion() == tr.image_motion(11)
+    assert abs(tr.image_motion(11) - true_motion) < 0.25 * true_motion + 1.0
+    assert tr.image_motion(3) is None  # long gone (the last 8 frames are kept)
+    assert tr.image_motion(40) is None  # not solved

@@ -21,6 +21,10 @@ __all__ = ["Detector", "detect"]
 _K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
 _K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
 _KH5 = np.ones((1, 5), np.uint8)
+# working pixels of sideways motion per frame below which the squashed pass is
+# skipped (when the caller knows the motion): bands narrower than the coarse
+# pass's scale (a pan blurs a line by at most its motion over the exposure)
+SQUASH_MOTION = 3.0
 
 
 class Detector:
@@ -197,7 +201,7 @@ class Detector:
             self.width, self.height, False, grass_small, self._grass_full, self._linemask_small, self._line_full, z, z.copy(), [], [], timings, self.factor
         )
 
-    def process(self, image: np.ndarray, *, lazy: bool = False) -> Detections:
+    def process(self, image: np.ndarray, *, lazy: bool = False, motion: float | None = None) -> Detections:
         """Detect grass, line pixels, straight lines and circle ellipses in one frame.
 
         Parameters
@@ -209,6 +213,11 @@ class Detector:
             needs only the line points; grass and line points are always
             computed). The deferred work uses private copies of the detector's
             buffers, so it may run after the next call, on another thread.
+        motion : float, optional
+            Expected sideways image motion (frame pixels per frame, e.g. from a
+            tracker's pan rate). Below ``SQUASH_MOTION`` working pixels per frame
+            no line is smeared wider than the fine and coarse passes see, and the
+            pass over the squashed frame is skipped. None (unknown): it runs.
 
         Returns
         -------
@@ -250,14 +259,17 @@ class Detector:
         # a fast horizontal pan smears the near-vertical lines (the halfway line)
         # sideways into wide, faint bands: look for them on the frame squashed
         # 4x horizontally, where they are thin again (near-vertical ones only;
-        # every frame: how blurred a frame is does not show reliably in cheap
-        # image statistics, and this pass costs about 1.3 ms)
-        ws = self._squash_w
-        gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
-        rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
-        squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
-        squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
-        if len(squashed.pts):
+        # on every frame unless the caller knows the image moves slowly: how
+        # blurred a frame is does not show reliably in cheap image statistics,
+        # and this pass costs about 1.5 ms)
+        smeared = motion is None or not motion / self.factor < SQUASH_MOTION
+        if smeared:
+            ws = self._squash_w
+            gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
+            rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
+            squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
+            squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
+        if smeared and len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px
             # across it): its scattered hits on a smeared band do not count
             blk = self._block
