@@ -313,7 +313,8 @@ class Tracker:
         self._swept_prev = False  # the previous frame's measurement came from a pan sweep
         self._kf_at = 0  # the frame the filter's state is at
         self._motions: dict = {}  # steps -> (F, Q)
-        self._motions_at: deque = deque(maxlen=8)  # (frame, sideways image motion px/frame or None)
+        self._motion_at: dict = {}  # frame -> sideways image motion (px/frame) or None, recent frames
+        self._motion_last: float | None = None
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
@@ -384,12 +385,8 @@ class Tracker:
         long gone). Asked by frame, the answer does not depend on how far the
         tracker has got: a detector one frame ahead on another thread gets the
         same hint as one in step."""
-        if frame is None:
-            return self._motions_at[-1][1] if self._motions_at else None
-        for k, m in reversed(self._motions_at):
-            if k == frame:
-                return m
-        return None
+        # (single dict operations: atomic under the GIL, whatever the solving thread does)
+        return self._motion_last if frame is None else self._motion_at.get(frame)
 
     def reset(self, *, keep_centre: bool = True) -> None:
         """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
@@ -408,7 +405,11 @@ class Tracker:
         est = self._solve(index, pts, image, detections)
         self.stats[est.status] += 1
         kf = self._kf
-        self._motions_at.append((index, None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)))
+        self._motion_last = None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)
+        self._motion_at[index] = self._motion_last
+        if len(self._motion_at) > 16:  # keep the last 8 frames (frames may be skipped)
+            for k in [k for k in self._motion_at if k <= index - 8]:
+                del self._motion_at[k]
         if self.lag == 0:
             return [est]
         self._window.append(est)
