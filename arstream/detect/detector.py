@@ -47,8 +47,9 @@ class Detector:
     min_line_length : float
         Shortest straight line reported (frame pixels).
     tau : float, optional
-        Half-width bound (frame pixels) of the widest line; by default it
-        follows the line widths measured on previous frames.
+        Half-width bound (frame pixels) of the widest line the fine ridge pass
+        takes (its top-hat kernel); by default that kernel is 11 working pixels
+        (wider lines are the coarse pass's).
     min_grass : float
         Least share of the frame that must be grass for a pitch view.
     max_ellipses : int
