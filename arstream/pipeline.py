@@ -275,8 +275,8 @@ class DetectStage(Stage):
             # needs only the line points (re-initialisation asks for the rest)
             # as of two frames back: what a tracker one frame behind (the detector on
             # its own thread) has surely solved, so threaded or not, the same hint
-            motion = self.motion(item.index - 2) if self.motion is not None else None
-            det = self.detector.process(self.analysis.image(item), lazy=True, **({} if motion is None else {"motion": motion}))
+            hint = {} if self.motion is None else {"motion": self.motion(item.index - 2)}
+            det = self.detector.process(self.analysis.image(item), lazy=True, **hint)
             item.detections = det
             item.matte = _matte_of(det)
         return [item]

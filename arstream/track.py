@@ -352,8 +352,11 @@ class Tracker:
                 Q_discrete_white_noise(2, dt, c.accel_roll**2),
                 Q_discrete_white_noise(2, dt, c.accel_logf**2),
             )
-            fq = self._motions[steps] = (block_diag(F1, F1, F1, F1), Q)
-        return fq[0].copy(), fq[1].copy()
+            fq = (block_diag(F1, F1, F1, F1), Q)
+            for a in fq:
+                a.flags.writeable = False  # shared by every step of that length (filterpy only reads them)
+            self._motions[steps] = fq
+        return fq
 
     def _camera_from_state(self, x: np.ndarray, centre: np.ndarray) -> Camera:
         x = np.asarray(x).ravel()
@@ -480,6 +483,11 @@ class Tracker:
             kf.predict()
             self._kf_at = index
             pred_cam = self._camera_from_state(kf.x, centre)
+            want_k1 = self._want_k1()
+
+            def track_refine(cam: Camera, radii) -> Refinement:
+                return refine_camera(cam, lidx, self.size, self.model, center=self.centre, estimate_k1=want_k1, radii=radii, max_points=400)
+
             # (in a whip pan that the sweep is following, the wide search only fails)
             for radii in ((4.0,),) if swept_prev else ((4.0,), (25.0, 10.0, 4.0, 2.5)):
                 # a close prediction needs one short round (a second when it moved the
@@ -489,17 +497,17 @@ class Tracker:
                 # before the last, narrower one, which would settle on a partial fit
                 # (unless it found too little to be a measurement: the wide search is next)
                 try:
-                    r = refine_camera(pred_cam, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
+                    r = track_refine(pred_cam, radii)
                     if len(radii) == 1:
                         moved = step = _image_shift(pred_cam, r.camera, centre, self.size)
                         for _ in range(2):
                             if step <= 2.0 or r.confidence < self.cfg.accept_low:
                                 break
-                            r2 = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=radii, max_points=400)
+                            r2 = track_refine(r.camera, radii)
                             step = _image_shift(r.camera, r2.camera, centre, self.size)
                             r = r2
                         if moved > 1.0:
-                            r = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(), radii=(2.5,), max_points=400)
+                            r = track_refine(r.camera, (2.5,))
                 except ValueError:
                     continue
                 if meas is None or r.confidence > meas.confidence:

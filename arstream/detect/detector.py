@@ -126,15 +126,14 @@ class Detector:
         self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
 
     # -----------------------------------------------------------------------------
-    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None, place=None):
+    def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None):
         """Add the ridge points ``extra`` found on the working image resized by
         1 / ``scale`` (sx, sy), where the points so far (working pixels, (N, 2),
         normals (N, 2)) found nothing nearby (within 2 cells of the coarse grid).
         ``min_abs_nx``: keep only those whose normal (in working pixels) is at
         least this horizontal; ``block``: a working-size uint8 mask of where
-        points are not added, instead of the neighbourhood of ``pts``; ``place``:
-        a function ``(points, normals) -> points`` that moves the added points
-        (working pixels) before they are added."""
+        points are not added, instead of the neighbourhood of ``pts``. The added
+        points come last (new arrays when any are added)."""
         if not len(extra.pts):
             return pts, nrm
         sx, sy = scale
@@ -157,10 +156,7 @@ class Detector:
             keep &= np.abs(en[:, 0]) >= min_abs_nx
         if not keep.any():
             return pts, nrm
-        ep, en = ep[keep], en[keep]
-        if place is not None:
-            ep = place(ep, en)
-        return np.concatenate([pts, ep]), np.concatenate([nrm, en])
+        return np.concatenate([pts, ep[keep]]), np.concatenate([nrm, en[keep]])
 
     def _long_runs(self, rp, size, min_rows):
         """The ridge points ``rp`` (RidgePoints, on an image of ``size`` (w, h)) in
@@ -281,13 +277,11 @@ class Detector:
             # squashed, a band is too few pixels wide for its edges: centred between
             # them on the working image (its bright end is a stripe's side when the
             # line runs along a stripe's edge)
-            B = self._rbufs["blur"]  # the fine pass's smoothed luma
-            reach = int(w / ws * 11) // 2 + 5
-
-            def centred(p, n):
-                return p + band_centres(B, p, n, reach=reach)[0][:, None] * n
-
-            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk, place=centred)
+            n0 = len(pts)
+            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk)
+            if len(pts) > n0:  # on the fine pass's smoothed luma
+                shift, _ = band_centres(self._rbufs["blur"], pts[n0:], nrm[n0:], reach=int(w / ws * 11) // 2 + 5)
+                pts[n0:] += shift[:, None] * nrm[n0:]
         # a painted line has grass beside it; a white kit has a shirt above and
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):
