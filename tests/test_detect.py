@@ -380,7 +380,7 @@ def test_ridge_centres_on_a_stripe_edge(step, blur, scale, bound):
     g = _line_on_step(step, blur)
     if scale > 1:
         g = cv2.resize(g, (g.shape[1] // scale, g.shape[0] // scale), interpolation=cv2.INTER_AREA)
-    rp, _ = ridge_points(g, np.full(g.shape, 255, np.uint8), sigma=1.2 if scale == 1 else 1.3, kernel=11, min_contrast=10, bufs={})
+    rp = ridge_points(g, np.full(g.shape, 255, np.uint8), sigma=1.2 if scale == 1 else 1.3, kernel=11, min_contrast=10, bufs={})
     assert len(rp.pts) >= 0.8 * (g.shape[0] - 4)
     x = (rp.pts[:, 0] + 0.5) * scale - 0.5  # working pixel -> image pixel
     assert abs(np.mean(x) - 150.5) < bound, np.mean(x) - 150.5
@@ -410,11 +410,11 @@ def test_smeared_band_is_centred_between_its_edges(step, smear, width):
     g = _smeared_band_on_step(step, smear, width)
     centre = 149.5 + 0.5 * width
     region = np.full(g.shape, 255, np.uint8)
-    rp, _ = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=10, bufs={})
+    rp = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=10, bufs={})
     assert len(rp.pts) >= 0.8 * (g.shape[0] - 4)
     assert abs(np.mean(rp.pts[:, 0]) - centre) < 0.25, np.mean(rp.pts[:, 0]) - centre
     # the ridge maximum alone (no band centres) is pulled toward the bright side
-    ridge, _ = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=10, band_width=np.inf, bufs={})
+    ridge = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=10, band_width=np.inf, bufs={})
     assert np.mean(ridge.pts[:, 0]) - centre < -1.0
 
 
@@ -434,8 +434,8 @@ def test_a_sharp_line_beside_the_boards_is_not_a_band(column):
 
     img = cv2.GaussianBlur(np.repeat(np.array(column, np.uint8)[:, None], 80, axis=1), (3, 3), 0.7)
     region = np.full(img.shape, 255, np.uint8)
-    rp, _ = ridge_points(img, region, sigma=1.2, kernel=11, min_contrast=6, bufs={})
-    ridge, _ = ridge_points(img, region, sigma=1.2, kernel=11, min_contrast=6, band_width=np.inf, bufs={})
+    rp = ridge_points(img, region, sigma=1.2, kernel=11, min_contrast=6, bufs={})
+    ridge = ridge_points(img, region, sigma=1.2, kernel=11, min_contrast=6, band_width=np.inf, bufs={})
     assert len(rp.pts) == len(ridge.pts) >= 70
     assert abs(np.median(rp.pts[:, 1]) - np.median(ridge.pts[:, 1])) < 0.1
     assert abs(np.median(rp.pts[:, 1]) - 14.8) < 0.3

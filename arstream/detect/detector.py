@@ -247,11 +247,11 @@ class Detector:
         # wide lines (zoomed in, or smeared by a fast pan). Coarse points count
         # only where the fine scale found nothing.
         kf = 11 if self.tau is None else 2 * max(2, int(np.ceil(self.tau / self.factor))) + 1
-        fine, cand = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, bufs=self._rbufs)
+        fine = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, bufs=self._rbufs)
         wc, hc = self._coarse_size
         gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
         rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
-        coarse, _ = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
+        coarse = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
         pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
         # a fast horizontal pan smears the near-vertical lines (the halfway line)
         # sideways into wide, faint bands: look for them on the frame squashed
@@ -264,7 +264,7 @@ class Detector:
             ws = self._squash_w
             gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
             rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
-            squashed, _ = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
+            squashed = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
             squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
         if smeared and len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px

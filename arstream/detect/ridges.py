@@ -34,11 +34,9 @@ import numpy as np
 
 from arstream.imaging import sample_bilinear
 
+from .kernels import ridge_scan
+
 __all__ = ["RidgePoints", "ridge_points"]
-
-_KX = np.ones((1, 3), np.uint8)
-_KY = np.ones((3, 1), np.uint8)
-
 
 class RidgePoints:
     __slots__ = ("pts", "nrm", "contrast", "n_candidates")
@@ -62,7 +60,7 @@ def ridge_points(
     curvature_ratio: float = 0.1,
     band_width: float | None = None,
     bufs: dict,
-) -> tuple[RidgePoints, np.ndarray]:
+) -> RidgePoints:
     """Sub-pixel ridge centres of bright thin lines.
 
     Parameters
@@ -81,112 +79,32 @@ def ridge_points(
 
     Returns
     -------
-    (RidgePoints, cand) where ``cand`` (h, w) uint8 is the candidate (line pixel) mask.
+    RidgePoints
     """
     h, w = gray.shape
     if bufs.get("shape") != (h, w):
         bufs.clear()
         bufs["shape"] = (h, w)
         bufs["tophat"] = np.empty((h, w), np.uint8)
-        bufs["cand"] = np.empty((h, w), np.uint8)
         bufs["f32"] = np.empty((h, w), np.float32)
         bufs["blur"] = np.empty((h, w), np.float32)
-        bufs["mx"] = np.empty((h, w), np.uint8)
-        bufs["my"] = np.empty((h, w), np.uint8)
     key = ("se", kernel)
     se = bufs.get(key)
     if se is None:
         se = bufs[key] = cv2.getStructuringElement(cv2.MORPH_RECT, (kernel, kernel))
     th = cv2.morphologyEx(gray, cv2.MORPH_TOPHAT, se, dst=bufs["tophat"])
-    cand = bufs["cand"]
-    cv2.threshold(th, max(min_contrast * 0.9, 2.0), 255, cv2.THRESH_BINARY, dst=cand)
-    cv2.bitwise_and(cand, region, dst=cand)
-    # a ridge centre is a maximum across the line, so along x or along y
-    # (plateaus of saturated wide lines included): drop the rest early
-    mx = cv2.dilate(th, _KX, dst=bufs["mx"])
-    my = cv2.dilate(th, _KY, dst=bufs["my"])
-    cv2.compare(th, mx, cv2.CMP_GE, dst=mx)
-    cv2.compare(th, my, cv2.CMP_GE, dst=my)
-    cv2.bitwise_or(mx, my, dst=mx)
-    cv2.bitwise_and(cand, mx, dst=cand)
-    # keep a 2 px frame free so that the 3x3 stencils and side samples stay inside
-    cand[:2] = 0
-    cand[-2:] = 0
-    cand[:, :2] = 0
-    cand[:, -2:] = 0
     f = bufs["f32"]
     f[:] = gray
     k = int(2 * np.ceil(3 * sigma) + 1)
     # (always made: the detector centres the squashed pass's bands on the fine one's)
     B = cv2.GaussianBlur(f, (k, k), sigma, dst=bufs["blur"], borderType=cv2.BORDER_REPLICATE)
-    nz = cv2.findNonZero(cand)
-    if nz is None:
-        return RidgePoints.empty(), cand
-    xy = nz.reshape(-1, 2)
-    x = xy[:, 0].astype(np.intp)
-    y = xy[:, 1].astype(np.intp)
-    Bf = B.ravel()
-    idx = y * w + x
-    c = Bf[idx]
-    xp, xm = Bf[idx + 1], Bf[idx - 1]
-    yp, ym = Bf[idx + w], Bf[idx - w]
-    gx = 0.5 * (xp - xm)
-    gy = 0.5 * (yp - ym)
-    gxx = xp + xm - 2.0 * c
-    gyy = yp + ym - 2.0 * c
-    gxy = 0.25 * (Bf[idx + w + 1] - Bf[idx + w - 1] - Bf[idx - w + 1] + Bf[idx - w - 1])
-    # eigen-decomposition of [[gxx, gxy], [gxy, gyy]]: l1 <= l2
-    half_tr = 0.5 * (gxx + gyy)
-    root = np.sqrt(0.25 * (gxx - gyy) ** 2 + gxy * gxy)
-    l1 = half_tr - root
-    l2 = half_tr + root
-    # eigenvector of l1: (gxy, l1 - gxx) or (l1 - gyy, gxy), the better conditioned
-    ax, ay = gxy, l1 - gxx
-    bx, by = l1 - gyy, gxy
-    use_b = (bx * bx + by * by) > (ax * ax + ay * ay)
-    nx = np.where(use_b, bx, ax)
-    ny = np.where(use_b, by, ay)
-    nn = np.sqrt(nx * nx + ny * ny)
-    ok = (l1 < 0) & (nn > 1e-12)
-    nn[~ok] = 1.0
-    nx /= nn
-    ny /= nn
-    # elongated: the second curvature well below the first (blobs have both large)
-    ok &= l2 > 0.5 * l1
-    if not ok.any():
-        return RidgePoints.empty(), cand
-    sel = np.flatnonzero(ok)
-    x, y, nx, ny, gx, gy, c, l1 = x[sel], y[sel], nx[sel], ny[sel], gx[sel], gy[sel], c[sel], l1[sel]
-    # the grass on both sides, beyond the half width
-    d = 0.5 * kernel
-    sx1 = np.clip(np.rint(x + d * nx), 0, w - 1).astype(np.intp)
-    sy1 = np.clip(np.rint(y + d * ny), 0, h - 1).astype(np.intp)
-    sx2 = np.clip(np.rint(x - d * nx), 0, w - 1).astype(np.intp)
-    sy2 = np.clip(np.rint(y - d * ny), 0, h - 1).astype(np.intp)
-    b1 = Bf[sy1 * w + sx1]
-    b2 = Bf[sy2 * w + sx2]
-    # the centre, with the grass's own slope across the line taken out (a linear
-    # background through the side samples): a line on the edge of a mowing
-    # stripe or a shadow sits on a step, whose slope would pull the maximum
-    # toward the bright side (by up to a pixel or two for a line smeared wide by
-    # a pan, whose curvature is weak). The sides count as grass when they differ
-    # by at most half the line's rise over the brighter one (else one is on the
-    # line itself: a band wider than the scale)
+    # candidates (top-hat above 0.9 of the contrast, in the region, a maximum across x
+    # or y) and their centres: one compiled loop (kernels.ridge_scan)
+    pts, nrm, aux, n_cand = ridge_scan(th, region, B, max(min_contrast * 0.9, 2.0), float(min_contrast), 0.5 * kernel, float(curvature_ratio))
+    if not len(pts):
+        return RidgePoints(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), n_cand)
+    c, b1, b2, l1 = aux.T
     contrast = c - np.maximum(b1, b2)
-    slope = np.where(np.abs(b1 - b2) <= 0.5 * contrast, (b1 - b2) / (2.0 * d), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -(gx * nx + gy * ny - slope) / l1
-    ox, oy = t * nx, t * ny
-    ok = (np.abs(ox) <= 0.5) & (np.abs(oy) <= 0.5)
-    px = x + ox
-    py = y + oy
-    # a line wider than the scale is a plateau: flat (weak curvature for its
-    # contrast) with a centre anywhere on it; the coarser pass finds it
-    ok &= (contrast >= min_contrast) & (-l1 >= curvature_ratio * contrast)
-    if not ok.any():
-        return RidgePoints.empty(), cand
-    pts = np.column_stack([px[ok], py[ok]])
-    nrm = np.column_stack([nx[ok], ny[ok]])
     # a band wider than the scale (a line smeared by a pan): on a step of the grass (a
     # stripe's edge) its plateau slopes and its maximum sits at the bright end; on
     # flat grass the maximum wanders over the plateau with the noise. The midpoint
@@ -195,7 +113,6 @@ def ridge_points(
     # (a sharp line, a strip of grass, then the dark boards is not one band)
     bw = 4.0 * sigma if band_width is None else band_width
     if np.isfinite(bw):
-        c, b1, b2, l1 = c[ok], b1[ok], b2[ok], l1[ok]
         rise = c - 0.5 * (b1 + b2)
         fwhm = 2.355 * np.sqrt(np.maximum(rise, 0.0) / -l1)
         sel = np.flatnonzero(fwhm > bw)
@@ -204,7 +121,7 @@ def ridge_points(
             f = fwhm[sel]
             wt = np.clip((width - bw) / (2.0 * sigma), 0.0, 1.0) * np.clip((1.7 * f - width) / (0.3 * f), 0.0, 1.0)
             pts[sel] += (wt * shift)[:, None] * nrm[sel]
-    return RidgePoints(pts, nrm, contrast[ok], len(xy)), cand
+    return RidgePoints(pts, nrm, contrast, n_cand)
 
 
 def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int) -> tuple[np.ndarray, np.ndarray]:
