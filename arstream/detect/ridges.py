@@ -16,6 +16,8 @@ Three steps, at the working resolution:
    its own pixel (``|t n| <= 0.5``). A centre must also be brighter than the
    grass on *both* sides at a distance beyond the line's half width (a step
    edge is bright on one side only) and be elongated (``|l2| < |l1|``).
+   Steps 1 and 2 past the top-hat and the smoothing are one compiled loop
+   over the image (:func:`arstream.detect.kernels.ridge_scan`).
 3. Bands: a line smeared by a fast pan is a band as wide as the scale. On a
    stripe's edge its plateau slopes down with the step, so its maximum sits at
    the bright end (1-2 px off); on flat grass it wanders over the plateau.
