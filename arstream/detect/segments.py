@@ -24,6 +24,8 @@ import math
 import cv2
 import numpy as np
 
+from .kernels import hough_lines
+
 __all__ = ["LineGroup", "group_lines"]
 
 _TH_BINS = 120  # 1.5 degree bins over [0, pi)
@@ -37,38 +39,6 @@ class LineGroup:
 
     def __init__(self, idx, line, direction, rms, t0, t1):
         self.idx, self.line, self.direction, self.rms, self.t0, self.t1 = idx, line, direction, rms, t0, t1
-
-
-def _tls(P: np.ndarray):
-    """Total-least-squares line of points (N, 2): (line (3,), direction (2,), rms).
-    (:func:`geometry.lines.fit_line`'s fit without its checks and uncertainties:
-    it runs some 15 times a frame in the Hough loop, and the final support is
-    fitted with ``fit_line`` in frame pixels. Second moments from one product:
-    coordinates are working pixels, so the centring in floating point loses
-    nothing that matters.)"""
-    n = len(P)
-    s = P.sum(axis=0)
-    S = P.T @ P
-    cx, cy = float(s[0]) / n, float(s[1]) / n
-    sxx = float(S[0, 0]) - n * cx * cx
-    sxy = float(S[0, 1]) - n * cx * cy
-    syy = float(S[1, 1]) - n * cy * cy
-    phi = 0.5 * math.atan2(2 * sxy, sxx - syy)
-    ux, uy = math.cos(phi), math.sin(phi)
-    half = 0.5 * (sxx + syy)
-    lmin = half - math.sqrt(max(half * half - (sxx * syy - sxy * sxy), 0.0))
-    rms = math.sqrt(max(lmin, 0.0) / n)
-    return np.array([-uy, ux, uy * cx - ux * cy]), np.array([ux, uy]), rms
-
-
-def _count_curve(curved_hits: np.ndarray, labels: np.ndarray | None, members: np.ndarray) -> bool:
-    """Count a failed straight-line candidate against the chain most of its
-    points belong to (a chain that fails twice is not tried again); whether
-    anything was counted."""
-    if labels is None:
-        return False
-    curved_hits[np.bincount(labels[members]).argmax()] += 1
-    return True
 
 
 def group_lines(
@@ -107,9 +77,8 @@ def group_lines(
     the points they took.
     """
     n = len(pts)
-    used = np.zeros(n, bool)
     if n < min_points:
-        return [], used
+        return [], np.zeros(n, bool)
     w, h = size
     cx, cy = 0.5 * (w - 1), 0.5 * (h - 1)
     rmax = 0.5 * math.hypot(w, h) + 2
@@ -138,77 +107,20 @@ def group_lines(
     peak = (core >= thr) & (core >= cv2.dilate(core, _K3))
     cand = np.flatnonzero(peak.ravel())
     if len(cand) == 0:
-        return [], used
+        return [], np.zeros(n, bool)
     cand = cand[np.argsort(-core.ravel()[cand], kind="stable")[: 4 * max_lines]]
     order_t = np.argsort(tb, kind="stable")
     starts = np.searchsorted(tb[order_t], np.arange(_TH_BINS + 1))
-    groups: list[LineGroup] = []
-    claimed = np.zeros((_TH_BINS, n_rho), bool)
-    curved_hits = np.zeros(int(labels.max()) + 1 if labels is not None and len(labels) else 1, np.int32)
-    any_curved = False
-    for c in cand:
-        ti, ri = divmod(int(c), n_rho)
-        if claimed[ti, ri]:
-            continue
-        a, b = ti - _HALF, ti + _HALF + 1
-        if a < 0:
-            idx = np.concatenate([order_t[starts[a + _TH_BINS] :], order_t[: starts[b]]])
-        elif b > _TH_BINS:
-            idx = np.concatenate([order_t[starts[a] :], order_t[: starts[b - _TH_BINS]]])
-        else:
-            idx = order_t[starts[a] : starts[b]]
-        idx = idx[~used[idx]]
-        if len(idx) < min_points:
-            continue
-        th0 = (ti + 0.5) * (math.pi / _TH_BINS)
-        r0 = (ri + 0.5) * rho_bin - rmax
-        n0x, n0y = math.cos(th0), math.sin(th0)
-        P = pts[idx]
-        sel = np.abs(P @ np.array([n0x, n0y]) - (r0 + cx * n0x + cy * n0y)) <= 2.5
-        if np.count_nonzero(sel) < min_points:
-            continue
-        if any_curved:
-            lab = labels[idx[sel]]
-            top = np.bincount(lab).argmax()
-            if top and curved_hits[top] >= 2 and np.count_nonzero(lab == top) > 0.7 * len(lab):
-                continue
-        line, u, rms = _tls(P[sel])
-        sel = (np.abs(P @ line[:2] + line[2]) <= tol) & (np.abs(nrm[idx] @ line[:2]) > 0.985)
-        if np.count_nonzero(sel) >= min_points:
-            line, u, rms = _tls(P[sel])
-            members = idx[sel]
-            t = pts[members] @ u
-            o = np.argsort(t)
-            ts = t[o]
-            gaps = np.flatnonzero(np.diff(ts) > max_gap)
-            if len(gaps):
-                bounds = np.r_[0, gaps + 1, len(ts)]
-                ext = ts[bounds[1:] - 1] - ts[bounds[:-1]] + 0.5 * np.diff(bounds)
-                j = int(np.argmax(ext))
-                members = members[o[bounds[j] : bounds[j + 1]]]
-                if len(members) < min_points:
-                    continue
-                line, u, rms = _tls(pts[members])
-                t = pts[members] @ u
-            t0, t1 = float(t.min()), float(t.max())
-            length = t1 - t0
-            if length < min_length or len(members) < 0.4 * length:
-                continue
-            if rms > max_rms:  # the chord of a gentle curve (or a smeared band)
-                any_curved |= _count_curve(curved_hits, labels, members)
-                continue
-            # straightness: a quadratic through the residuals, peak-to-peak over the length
-            res = pts[members] @ line[:2] + line[2]
-            uu = (t - 0.5 * (t0 + t1)) * (2.0 / length)
-            q2 = uu * uu - (1.0 / 3.0)
-            k2 = float(q2 @ res) / max(float(q2 @ q2), 1e-12)  # u^2 is orthogonal to u and 1 on a symmetric spread
-            if abs(k2) > max_sagitta:
-                any_curved |= _count_curve(curved_hits, labels, members)
-                continue
-            used[members] = True
-            groups.append(LineGroup(members, line, u, rms, t0, t1))
-            claimed[max(ti - 1, 0) : ti + 2, max(ri - 2, 0) : ri + 3] = True
-            if len(groups) >= max_lines:
-                break
+    has_labels = labels is not None and len(labels) > 0
+    lab = labels.astype(np.int64) if has_labels else np.zeros(n, np.int64)
+    members, offsets, geo, used = hough_lines(
+        np.ascontiguousarray(pts, np.float64), np.ascontiguousarray(nrm, np.float64), lab, has_labels, int(lab.max()) + 1,
+        order_t.astype(np.int64), starts.astype(np.int64), cand.astype(np.int64), _TH_BINS, n_rho, rho_bin, rmax, cx, cy, _HALF,
+        int(min_points), float(min_length), float(max_gap), float(tol), int(max_lines), float(max_sagitta), float(max_rms),
+    )  # fmt: skip
+    groups = [
+        LineGroup(members[offsets[k] : offsets[k + 1]], g[:3].copy(), g[3:5].copy(), float(g[5]), float(g[6]), float(g[7]))
+        for k, g in enumerate(geo)
+    ]
     groups.sort(key=lambda g: -(g.t1 - g.t0))
     return groups, used
