@@ -29,6 +29,8 @@ import numpy as np
 
 from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
 
+from .kernels import conic_band
+
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
 
 _K3 = np.ones((3, 3), np.uint8)
@@ -225,6 +227,7 @@ def find_ellipses(
     n = len(pts)
     if n < min_points:
         return []
+    nrm = np.ascontiguousarray(nrm, np.float64)
     w, h = work_size
     W, H = full_size
     sw = float(A_wf[0, 0])  # frame pixels per working pixel
@@ -419,34 +422,23 @@ def _refine(coef0, q, nrm, fidx, s, tol, first_band=None):
     previous frame)."""
     if first_band is None:
         first_band = 1.5 * tol
-    coef = coef0
+    coef = np.ascontiguousarray(coef0, np.float64)
     # the later bands lie inside the first: work on the points near the
     # hypothesis only (the fits move the conic by a fraction of a pixel)
-    f, gx, gy = conic_values(coef[None], q[fidx])
-    near = np.abs(f[:, 0]) < (first_band + 1.0) * s * (np.hypot(gx[:, 0], gy[:, 0]) + 1e-12)
+    near, _, _ = conic_band(coef, q, nrm, fidx, (first_band + 1.0) * s, 0.0, False)
     fidx = fidx[near]
     if len(fidx) < 10:
         return None
-    qq = q[fidx]
-    nn = nrm[fidx]
-    D = _monomials(qq)
     sel = None
-    for band in (first_band, tol, min(tol, 1.0), None):
-        f, gx, gy = conic_values(coef[None], qq)
-        f, gx, gy = f[:, 0], gx[:, 0], gy[:, 0]
-        gn = np.hypot(gx, gy) + 1e-12
-        d = np.abs(f) / gn
-        if band is None:
-            break
-        sel = (d < band * s) & (np.abs(nn[:, 0] * gx + nn[:, 1] * gy) > 0.95 * gn)
+    for band in (first_band, tol, min(tol, 1.0)):
+        sel, _, S = conic_band(coef, q, nrm, fidx, band * s, 0.95, True)
         if np.count_nonzero(sel) < 10:
             return None
-        Ds = D[sel]
-        wts = 1.0 / (gn[sel] ** 2)
-        c2, ok = _batched_direct_fit((Ds.T @ (Ds * (wts / wts.mean())[:, None]))[None])
+        c2, ok = _batched_direct_fit(S[None])
         if not ok[0]:
             return None
-        coef = c2[0]
+        coef = np.ascontiguousarray(c2[0], np.float64)
+    _, d, _ = conic_band(coef, q, nrm, fidx, 0.0, 0.0, False)
     rms = float(np.sqrt(np.mean(d[sel] ** 2))) / s
     return coef, fidx[sel], rms
 

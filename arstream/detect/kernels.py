@@ -351,3 +351,73 @@ def hough_lines(
         if n_groups >= max_lines:
             break
     return members[:n_members].copy(), offsets[: n_groups + 1].copy(), geo[:n_groups].copy(), used
+
+
+@nb.njit(**_JIT)
+def conic_band(coef, q, nrm, idx, band, min_cos, scatter):
+    """Points near a conic, and their weighted scatter of conic monomials.
+
+    For each point q[idx[k]] (normalised coordinates), the conic's algebraic
+    value f and gradient g give the Sampson distance d = |f| / |g|. Selected:
+    d < ``band`` and, when ``min_cos`` > 0, the point's normal agreeing with the
+    gradient (|n . g| > min_cos |g|). With ``scatter``, the selected points'
+    monomials (x^2, xy, y^2, x, y, 1) are summed as D D^T / |g|^2, scaled so
+    that the weights average 1 (iteratively reweighted direct fits: the
+    gradient weights make the algebraic fit nearly geometric).
+
+    Parameters
+    ----------
+    coef : (6,) conic [A, B, C, D, E, F] (A x^2 + B xy + C y^2 + D x + E y + F)
+    q, nrm : (N, 2) points and unit normals
+    idx : (M,) int64 indices into q
+    band : float, distance bound (units of q)
+    min_cos : float, least |cos| between normal and gradient (0: no test)
+    scatter : bool, whether to sum the scatter matrix
+
+    Returns
+    -------
+    sel : (M,) bool, the selected points
+    d : (M,) float64, Sampson distances (units of q)
+    S : (6, 6) float64 weighted scatter (zeros when ``scatter`` is False)
+    """
+    A, B, C, D, E, F = coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]
+    m = idx.shape[0]
+    sel = np.zeros(m, np.bool_)
+    d = np.empty(m)
+    S = np.zeros((6, 6))
+    wsum = 0.0
+    ns = 0
+    mono = np.empty(6)
+    for k in range(m):
+        j = idx[k]
+        x = q[j, 0]
+        y = q[j, 1]
+        f = A * x * x + B * x * y + C * y * y + D * x + E * y + F
+        gx = 2.0 * A * x + B * y + D
+        gy = B * x + 2.0 * C * y + E
+        gn = np.sqrt(gx * gx + gy * gy) + 1e-12
+        dk = abs(f) / gn
+        d[k] = dk
+        if dk < band and (min_cos <= 0.0 or abs(nrm[j, 0] * gx + nrm[j, 1] * gy) > min_cos * gn):
+            sel[k] = True
+            ns += 1
+            if scatter:
+                w = 1.0 / (gn * gn)
+                wsum += w
+                mono[0] = x * x
+                mono[1] = x * y
+                mono[2] = y * y
+                mono[3] = x
+                mono[4] = y
+                mono[5] = 1.0
+                for r in range(6):
+                    wr = w * mono[r]
+                    for c in range(r, 6):
+                        S[r, c] += wr * mono[c]
+    if scatter and ns > 0:
+        scale = ns / wsum
+        for r in range(6):
+            for c in range(r, 6):
+                S[r, c] *= scale
+                S[c, r] = S[r, c]
+    return sel, d, S
