@@ -421,3 +421,87 @@ def conic_band(coef, q, nrm, idx, band, min_cos, scatter):
                 S[r, c] *= scale
                 S[c, r] = S[r, c]
     return sel, d, S
+
+
+@nb.njit(**_JIT)
+def _bilinear_replicate(B, x, y):
+    """Bilinear sample of the float image B at (x, y), border replicated."""
+    h, w = B.shape
+    x = min(max(x, 0.0), w - 1.0)
+    y = min(max(y, 0.0), h - 1.0)
+    x0 = min(int(x), w - 2) if w > 1 else 0
+    y0 = min(int(y), h - 2) if h > 1 else 0
+    fx = x - x0
+    fy = y - y0
+    x1 = min(x0 + 1, w - 1)
+    y1 = min(y0 + 1, h - 1)
+    top = B[y0, x0] + fx * (B[y0, x1] - B[y0, x0])
+    bot = B[y1, x0] + fx * (B[y1, x1] - B[y1, x0])
+    return top + fy * (bot - top)
+
+
+@nb.njit(**_JIT)
+def _band_edge(prof, r, sign, base, rise):
+    """Distance from the centre sample to where one side of the profile ``prof``
+    (2r + 1 samples; ``sign`` +1: outward along +n, -1: along -n) falls below
+    half the band's height over that side's grass level ``base``, and whether
+    the grass beyond it is flat (-1.0 when no edge or no flat grass)."""
+    level = base + 0.5 * rise
+    j = 0
+    for k in range(1, r + 1):
+        if prof[r + sign * k] < level:
+            j = k
+            break
+    if j < 1 or j > r - 4:
+        return -1.0
+    hi = -np.inf
+    lo = np.inf
+    for k in range(j + 2, r + 1):
+        v = prof[r + sign * k]
+        hi = max(hi, v)
+        lo = min(lo, v)
+    if not hi - lo <= 0.25 * rise:
+        return -1.0
+    a = prof[r + sign * (j - 1)]
+    b = prof[r + sign * j]
+    frac = (a - level) / (a - b) if a > b else (a - level)
+    return j - 1 + min(max(frac, 0.0), 1.0)
+
+
+@nb.njit(**_JIT)
+def band_scan(B, pts, nrm, r):
+    """:func:`arstream.detect.ridges.band_centres` for every point: the profile
+    of ``B`` along the normal (bilinear samples 1 px apart out to ``r`` px each
+    side, border replicated), each edge cut at half the band's height over its
+    own side's grass (the mean of the 3 outermost samples), flat grass beyond
+    each edge, sides within half the band's height of each other.
+
+    Returns
+    -------
+    shift : (N,) offset along the normal to the edges' midpoint (0: no band)
+    width : (N,) distance between the edges (0: no band)
+    """
+    n = pts.shape[0]
+    shift = np.zeros(n)
+    width = np.zeros(n)
+    prof = np.empty(2 * r + 1)
+    for i in range(n):
+        px = pts[i, 0]
+        py = pts[i, 1]
+        nx = nrm[i, 0]
+        ny = nrm[i, 1]
+        for k in range(2 * r + 1):
+            s = k - r
+            prof[k] = _bilinear_replicate(B, px + s * nx, py + s * ny)
+        b_r = (prof[2 * r] + prof[2 * r - 1] + prof[2 * r - 2]) / 3.0
+        b_l = (prof[0] + prof[1] + prof[2]) / 3.0
+        rise = (prof[r - 1] + prof[r] + prof[r + 1]) / 3.0 - 0.5 * (b_l + b_r)
+        if not (rise > 0 and abs(b_l - b_r) <= 0.5 * rise):
+            continue
+        dr = _band_edge(prof, r, 1, b_r, rise)
+        dl = _band_edge(prof, r, -1, b_l, rise)
+        if dr < 0 or dl < 0:
+            continue
+        shift[i] = 0.5 * (dr - dl)
+        width[i] = dr + dl
+    return shift, width

@@ -34,9 +34,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.imaging import sample_bilinear
-
-from .kernels import ridge_scan
+from .kernels import band_scan, ridge_scan
 
 __all__ = ["RidgePoints", "ridge_points"]
 
@@ -144,6 +142,8 @@ def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int)
     nrm : (N, 2) unit normals across the bands
     reach : samples each side (at least 6)
 
+    One compiled loop over the points (:func:`arstream.detect.kernels.band_scan`).
+
     Returns
     -------
     shift : (N,) offset along ``nrm`` from ``pts`` to the band's edge midpoint (0 where
@@ -152,36 +152,7 @@ def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int)
         above them)
     width : (N,) distance between the edges (0 where no band is found)
     """
-    n = len(pts)
-    if n == 0:
+    if len(pts) == 0:
         return np.zeros(0), np.zeros(0)
-    r = int(reach)
-    s = np.arange(-r, r + 1, dtype=np.float32)
-    q = np.stack([pts[:, :1] + s * nrm[:, :1], pts[:, 1:] + s * nrm[:, 1:]], axis=-1)
-    prof = sample_bilinear(B, q, border=cv2.BORDER_REPLICATE)  # (N, 2r + 1)
-    # both sides at once, outward from the centre: rows 0..N-1 along +nrm, N..2N-1 along -nrm
-    side = np.concatenate([prof[:, r:], prof[:, r::-1]])  # (2N, r + 1), distance 0 .. r
-    base = side[:, -3:].mean(axis=1)
-    b_r, b_l = base[:n], base[n:]
-    rise = prof[:, r - 1 : r + 2].mean(axis=1) - 0.5 * (b_l + b_r)
-    rise2 = np.concatenate([rise, rise])
-    level = base + 0.5 * rise2
-    below = side < level[:, None]
-    below[:, 0] = False
-    j = np.argmax(below, axis=1)  # the first sample below the level (0: none)
-    found = (j >= 1) & (j <= r - 4)
-    j = np.clip(j, 1, r - 4)
-    rows = np.arange(2 * n)
-    # flat beyond the edge: the spread of the samples from j + 2 out
-    hi = np.maximum.accumulate(side[:, ::-1], axis=1)[:, ::-1]
-    lo = np.minimum.accumulate(side[:, ::-1], axis=1)[:, ::-1]
-    found &= hi[rows, j + 2] - lo[rows, j + 2] <= 0.25 * rise2
-    a, b = side[rows, j - 1], side[rows, j]
-    dist = j - 1 + np.clip((a - level) / np.where(a > b, a - b, 1.0), 0.0, 1.0)
-    dr, dl = dist[:n], dist[n:]
-    # grass on both sides: a step between them of at most half the band's height
-    # (a mowing stripe's edge; not the boards beyond the far touchline)
-    ok = found[:n] & found[n:] & (rise > 0) & (np.abs(b_l - b_r) <= 0.5 * rise)
-    shift = np.where(ok, 0.5 * (dr - dl), 0.0).astype(np.float64)
-    width = np.where(ok, dr + dl, 0.0).astype(np.float64)
-    return shift, width
+    B = np.ascontiguousarray(B, np.float32)
+    return band_scan(B, np.ascontiguousarray(pts, np.float64), np.ascontiguousarray(nrm, np.float64), int(reach))
