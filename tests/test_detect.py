@@ -491,3 +491,25 @@ def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
         d = Detector(*SIZE).process(img, motion=motion)
         near[motion] = int(np.sum(nearest(d.line_points, truth) < 3.0))
     assert near[None] == near[20.0] > near[2.0] + 20
+
+
+def test_the_kernels_warm_up_with_the_signatures_detection_uses():
+    # numba compiles a kernel again for every new argument type signature (some
+    # seconds each): the warm-up that every Detector starts must load exactly
+    # the signatures detection calls, so that nothing compiles mid-clip
+    from arstream.detect import kernels
+
+    kernels.warm_up()
+    names = ["ridge_scan", "band_scan", "conic_band", "hough_lines"]
+    before = {n: len(getattr(kernels, n).signatures) for n in names}
+    assert all(v >= 1 for v in before.values()), before
+    clip = SynthClip("penalty", seed=3, frames=30, size=(640, 360))
+    det = Detector(640, 360)
+    for i in (0, 10, 20):
+        d = det.process(clip.render(i))
+        assert d.lines  # the Hough loop and the ellipse refinement ran
+    clip = SynthClip("hard", seed=3, frames=250, size=(640, 360))
+    for i in (150, 160):  # the whip pan: smeared bands, centred between their edges
+        det.process(clip.render(i)).resolve()
+    after = {n: len(getattr(kernels, n).signatures) for n in names}
+    assert after == before

@@ -12,6 +12,7 @@ from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
+from .kernels import warm_up_async
 from .results import DetectedEllipse, DetectedLine, Detections
 from .ridges import RidgePoints, band_centres, ridge_points
 from .segments import group_lines
@@ -124,6 +125,7 @@ class Detector:
         self._rbufs: dict = {}
         self.frames = 0
         self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
+        warm_up_async()  # load the compiled kernels while the caller starts up
 
     # -----------------------------------------------------------------------------
     def _merge(self, pts, nrm, extra, scale, min_abs_nx=0.0, block=None):

@@ -7,15 +7,21 @@ overhead, and it holds the GIL between them; here each is one compiled loop
 that releases the GIL (the pipeline runs detection on its own thread).
 
 Compiled on first use and cached next to this file (numba's ``cache=True``;
-the first run after an install takes some seconds more).
+the first run after an install takes some seconds more). Loading the cached
+code still costs about 0.3 s per process, most of it numba's one-off set-up of
+its code generator on the first call: :func:`warm_up_async` (called by every
+``Detector``) does that on a background thread, overlapping the caller's own
+start-up (the GIL is released while LLVM loads the code).
 """
 
 from __future__ import annotations
 
+import threading
+
 import numba as nb
 import numpy as np
 
-__all__ = ["ridge_scan"]
+__all__ = ["band_scan", "conic_band", "hough_lines", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -505,3 +511,28 @@ def band_scan(B, pts, nrm, r):
         shift[i] = 0.5 * (dr - dl)
         width[i] = dr + dl
     return shift, width
+
+
+def warm_up() -> None:
+    """Load (or compile) every kernel by calling it once on tiny inputs."""
+    th = np.zeros((8, 8), np.uint8)
+    B = np.zeros((8, 8), np.float32)
+    ridge_scan(th, th, B, 5.0, 5.0, 5.5, 0.1)
+    band_scan(B, np.zeros((1, 2)), np.ones((1, 2)), 6)
+    conic_band(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 0.0, False)
+    z = np.zeros(1, np.int64)
+    hough_lines(np.zeros((1, 2)), np.zeros((1, 2)), z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
+
+
+_warm_thread: threading.Thread | None = None
+_warm_lock = threading.Lock()
+
+
+def warm_up_async() -> None:
+    """:func:`warm_up` on a daemon thread, once per process (later calls return
+    at once; a kernel called meanwhile waits for numba's compiler lock)."""
+    global _warm_thread
+    with _warm_lock:
+        if _warm_thread is None:
+            _warm_thread = threading.Thread(target=warm_up, name="arstream-kernels", daemon=True)
+            _warm_thread.start()
