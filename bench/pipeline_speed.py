@@ -53,14 +53,14 @@ the I420 planes; cameras mapped back exactly, `--analysis-width`). With the
 cameras known, the whole loop (decode, render, composite, encode) costs
 1.1-1.2x a plain decode+encode: that part is within the 1.5x budget. With
 detection and solving, per 720p frame (CPU of each stage's own thread,
-`stage_cpu_ms`): detection about 7 ms (grass and line pixels only while the
+`stage_cpu_ms`): detection about 6 ms (grass and line pixels only while the
 camera is tracked: lines and the ellipse search run lazily, when the tracker
 re-initialises), tracking about 5 ms (one short refinement round from the
 filter's prediction), rendering and compositing about 3 ms; plus the
 one-off initialisation at the start of a shot (0.05-0.2 s). Decode + x264
 `veryfast` alone take about 20 ms of CPU per 720p frame (43 at 1080p): 60
 fps on two cores leaves about 13 ms per frame for everything else at 720p,
-and the pipeline spends about 20. Detection runs on a worker thread one
+and the pipeline spends about 19. Detection runs on a worker thread one
 frame ahead of tracking and rendering, so both cores are busy; the run is
 CPU-bound (the fps bound from CPU time is given per size above). Memory stays
 flat in clip length (at most lag + 8 frames are held; the smoother keeps
