@@ -281,8 +281,7 @@ def find_ellipses(
         # release everything near this ellipse
         fidx = np.flatnonzero(free)
         Cq = Tn_inv.T @ (A_wf.T @ accepted.conic @ A_wf) @ Tn_inv
-        f1, gx1, gy1 = conic_values(_conic_to_coef(Cq)[None], q[fidx])
-        near = np.abs(f1[:, 0]) < (2.5 * tol * s) * np.hypot(gx1[:, 0], gy1[:, 0])
+        near, _, _ = conic_band(_conic_to_coef(Cq), q, nrm, fidx, 2.5 * tol * s, 0.0, False)
         free[fidx[near]] = False
         free[accepted.idx] = False
     return out

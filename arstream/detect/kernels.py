@@ -318,22 +318,20 @@ def hough_lines(
         length = t1 - t0
         if length < min_length or nm < 0.4 * length:
             continue
-        if rms > max_rms:  # the chord of a gentle curve (or a smeared band)
-            if has_labels:
-                top, cnt = _top_label(labels, piece, nm, counts)
-                curved_hits[top] += 1
-                any_curved = True
-            continue
+        # the chord of a gentle curve (or a smeared band) is too thick; else
         # straightness: a quadratic through the residuals, peak-to-peak over the length
-        qr = 0.0
-        qq = 0.0
-        for k in range(nm):
-            j = piece[k]
-            uu = (tbuf[k] - 0.5 * (t0 + t1)) * (2.0 / length)
-            q2 = uu * uu - 1.0 / 3.0
-            qr += q2 * (pts[j, 0] * a + pts[j, 1] * b + cc)
-            qq += q2 * q2
-        if abs(qr / max(qq, 1e-12)) > max_sagitta:
+        curved = rms > max_rms
+        if not curved:
+            qr = 0.0
+            qq = 0.0
+            for k in range(nm):
+                j = piece[k]
+                uu = (tbuf[k] - 0.5 * (t0 + t1)) * (2.0 / length)
+                q2 = uu * uu - 1.0 / 3.0
+                qr += q2 * (pts[j, 0] * a + pts[j, 1] * b + cc)
+                qq += q2 * q2
+            curved = abs(qr / max(qq, 1e-12)) > max_sagitta
+        if curved:
             if has_labels:
                 top, cnt = _top_label(labels, piece, nm, counts)
                 curved_hits[top] += 1

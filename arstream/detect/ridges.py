@@ -38,16 +38,12 @@ from .kernels import band_scan, ridge_scan
 
 __all__ = ["RidgePoints", "ridge_points"]
 
+
 class RidgePoints:
     __slots__ = ("pts", "nrm", "contrast", "n_candidates")
 
     def __init__(self, pts, nrm, contrast, n_candidates):
         self.pts, self.nrm, self.contrast, self.n_candidates = pts, nrm, contrast, n_candidates
-
-    @classmethod
-    def empty(cls) -> "RidgePoints":
-        z = np.zeros((0, 2))
-        return cls(z, z.copy(), np.zeros(0), 0)
 
 
 def ridge_points(
@@ -101,8 +97,6 @@ def ridge_points(
     # candidates (top-hat above 0.9 of the contrast, in the region, a maximum across x
     # or y) and their centres: one compiled loop (kernels.ridge_scan)
     pts, nrm, aux, n_cand = ridge_scan(th, region, B, max(min_contrast * 0.9, 2.0), float(min_contrast), 0.5 * kernel, float(curvature_ratio))
-    if not len(pts):
-        return RidgePoints(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), n_cand)
     c, b1, b2, l1 = aux.T
     contrast = c - np.maximum(b1, b2)
     # a band wider than the scale (a line smeared by a pan): on a step of the grass (a
