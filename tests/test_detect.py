@@ -500,7 +500,7 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     from arstream.detect import kernels
 
     kernels.warm_up()
-    names = ["ridge_scan", "band_scan", "conic_band", "hough_lines"]
+    names = [n for n in kernels.__all__ if not n.startswith("warm_up")]
     before = {n: len(getattr(kernels, n).signatures) for n in names}
     assert all(v >= 1 for v in before.values()), before
     clip = SynthClip("penalty", seed=3, frames=30, size=(640, 360))
@@ -513,3 +513,52 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
         det.process(clip.render(i)).resolve()
     after = {n: len(getattr(kernels, n).signatures) for n in names}
     assert after == before
+
+
+@pytest.mark.parametrize("reach", [1, 3])
+def test_chains_are_the_connected_components_of_the_dilated_cells(reach):
+    # kernels.chains links points whose cells are within `reach` along both axes:
+    # reach 1 is the 8-connectivity of the occupied cells, reach 3 that of the
+    # cells dilated by a 3x3 square (what the detector's chain tests used before)
+    from arstream.detect import kernels
+
+    rng = np.random.default_rng(reach)
+    h, w = 60, 90
+    xi = rng.integers(0, w, 400)
+    yi = rng.integers(0, h, 400)
+    grid = np.full((h, w), -1, np.int32)
+    labels, ext_x, ext_y = kernels.chains(xi, yi, reach, grid)
+    assert (grid == -1).all()  # the scratch is left as it came
+    img = np.zeros((h, w), np.uint8)
+    img[yi, xi] = 255
+    if reach == 3:
+        img = cv2.dilate(img, np.ones((3, 3), np.uint8))
+    _, lab = cv2.connectedComponents(img, connectivity=8)
+    ref = lab[yi, xi]
+    # the same partition of the points, numbered 1..K
+    pairs = set(zip(labels.tolist(), ref.tolist()))
+    assert len(pairs) == len(set(labels.tolist())) == len(set(ref.tolist())) > 5
+    assert set(labels.tolist()) == set(range(1, labels.max() + 1))
+    for k in set(labels.tolist()):
+        m = labels == k
+        assert (ext_x[m] == np.ptp(xi[m])).all() and (ext_y[m] == np.ptp(yi[m])).all()
+
+
+def test_grid_clear_is_the_dilated_occupancy_test():
+    from arstream.detect import kernels
+
+    rng = np.random.default_rng(5)
+    h, w = 40, 70
+    pts = rng.uniform(-2, [w + 2, h + 2], (150, 2))
+    ep = rng.uniform(-2, [w + 2, h + 2], (300, 2))
+    grid = np.zeros((h, w), np.uint8)
+    for rint, rx, ry in [(True, 2, 0), (False, 2, 2)]:
+        keep = kernels.grid_clear(pts, ep, 1.0, 1.0, rint, rx, ry, grid)
+        assert not grid.any()
+        cell = (lambda p: np.rint(p).astype(int)) if rint else (lambda p: p.astype(int))
+        occ = np.zeros((h, w), np.uint8)
+        occ[np.clip(cell(pts[:, 1]), 0, h - 1), np.clip(cell(pts[:, 0]), 0, w - 1)] = 255
+        occ = cv2.dilate(occ, np.ones((2 * ry + 1, 2 * rx + 1), np.uint8))
+        ref = occ[np.clip(cell(ep[:, 1]), 0, h - 1), np.clip(cell(ep[:, 0]), 0, w - 1)] == 0
+        assert 20 < keep.sum() < len(ep) - 20
+        np.testing.assert_array_equal(keep, ref)

@@ -12,7 +12,7 @@ from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
-from .kernels import warm_up_async
+from .kernels import beside_grass, chains, grid_clear, warm_up_async
 from .results import DetectedEllipse, DetectedLine, Detections
 from .ridges import RidgePoints, band_centres, ridge_points
 from .segments import group_lines
@@ -20,8 +20,6 @@ from .segments import group_lines
 __all__ = ["Detector", "detect"]
 
 _K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
-_K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
-_KH5 = np.ones((1, 5), np.uint8)
 # working pixels of sideways motion per frame below which the squashed pass is
 # skipped (when the caller knows the motion): bands narrower than the coarse
 # pass's scale (a pan blurs a line by at most its motion over the exposure)
@@ -110,15 +108,15 @@ class Detector:
         self._coarse_size = (wc, hc)
         self._gray_c = np.empty((hc, wc), np.uint8)
         self._region_c = np.empty((hc, wc), np.uint8)
-        self._occ_c = np.empty((hc, wc), np.uint8)
-        self._lab_c = np.empty((hc, wc), np.int32)
         self._rbufs_c: dict = {}
         self._squash_w = max(w // 4, 16)
         self._gray_s = np.empty((h, self._squash_w), np.uint8)
         self._region_s = np.empty((h, self._squash_w), np.uint8)
         self._rbufs_s: dict = {}
-        self._block = np.empty((h, w), np.uint8)
-        self._runs_buf = np.empty((h, self._squash_w), np.uint8)
+        self._block = np.zeros((h, w), np.uint8)  # scratch of the kernels: zero, -1 between calls
+        self._occ_c = np.zeros((hc, wc), np.uint8)
+        self._chain_grid = np.full((hc, wc), -1, np.int32)
+        self._runs_grid = np.full((h, self._squash_w), -1, np.int32)
         self._grass_full = np.empty((height, width), np.uint8)
         self._line_full = np.empty((height, width), np.uint8)
         self._gbufs: dict = {}
@@ -133,9 +131,10 @@ class Detector:
         1 / ``scale`` (sx, sy), where the points so far (working pixels, (N, 2),
         normals (N, 2)) found nothing nearby (within 2 cells of the coarse grid).
         ``min_abs_nx``: keep only those whose normal (in working pixels) is at
-        least this horizontal; ``block``: a working-size uint8 mask of where
-        points are not added, instead of the neighbourhood of ``pts``. The added
-        points come last (new arrays when any are added)."""
+        least this horizontal; ``block``: working-pixel points (M, 2) whose
+        neighbourhood (2 px along rows) blocks additions, instead of the
+        neighbourhood of ``pts``. The added points come last (new arrays when
+        any are added)."""
         if not len(extra.pts):
             return pts, nrm
         sx, sy = scale
@@ -144,16 +143,10 @@ class Detector:
         en /= np.linalg.norm(en, axis=1, keepdims=True)
         w, h = self.work_size
         if block is not None:
-            keep = block[np.clip(np.rint(ep[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(ep[:, 0]).astype(np.intp), 0, w - 1)] == 0
+            keep = grid_clear(block, ep, 1.0, 1.0, True, 2, 0, self._block)
         else:
             wc, hc = self._coarse_size
-            cx, cy = wc / w, hc / h
-            occ = self._occ_c
-            occ[:] = 0
-            if len(pts):
-                occ[np.clip((pts[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((pts[:, 0] * cx).astype(np.intp), 0, wc - 1)] = 255
-                cv2.dilate(occ, _K5, dst=occ)
-            keep = occ[np.clip((ep[:, 1] * cy).astype(np.intp), 0, hc - 1), np.clip((ep[:, 0] * cx).astype(np.intp), 0, wc - 1)] == 0
+            keep = grid_clear(pts, ep, wc / w, hc / h, False, 2, 2, self._occ_c)
         if min_abs_nx > 0:
             keep &= np.abs(en[:, 0]) >= min_abs_nx
         if not keep.any():
@@ -167,14 +160,10 @@ class Detector:
         if not len(rp.pts):
             return rp
         w, h = size
-        xi = np.clip(np.rint(rp.pts[:, 0]).astype(np.intp), 0, w - 1)
-        yi = np.clip(np.rint(rp.pts[:, 1]).astype(np.intp), 0, h - 1)
-        r = self._runs_buf
-        r[:] = 0
-        r[yi, xi] = 255
-        cv2.dilate(r, _K3, dst=r)
-        _, lab = cv2.connectedComponents(r, connectivity=8)
-        keep = _chain_extent(lab[yi, xi], yi, yi) + 3 >= min_rows  # the dilated chain: a row more at each end
+        xi = np.clip(np.rint(rp.pts[:, 0]).astype(np.int64), 0, w - 1)
+        yi = np.clip(np.rint(rp.pts[:, 1]).astype(np.int64), 0, h - 1)
+        _, _, ext_y = chains(xi, yi, 3, self._runs_grid)  # linked when within 3 px: a 3x3 dilation's 8-connectivity
+        keep = ext_y + 3 >= min_rows  # the dilated chain: a row more at each end
         return RidgePoints(rp.pts[keep], rp.nrm[keep], rp.contrast[keep], rp.n_candidates)
 
     def _to_full(self, p: np.ndarray) -> np.ndarray:
@@ -271,16 +260,11 @@ class Detector:
         if smeared and len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px
             # across it): its scattered hits on a smeared band do not count
-            blk = self._block
-            blk[:] = 0
-            if len(fine.pts):
-                blk[np.clip(np.rint(fine.pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(fine.pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
-                cv2.dilate(blk, _KH5, dst=blk)
+            n0 = len(pts)
+            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=fine.pts)
             # squashed, a band is too few pixels wide for its edges: centred between
             # them on the working image (its bright end is a stripe's side when the
             # line runs along a stripe's edge)
-            n0 = len(pts)
-            pts, nrm = self._merge(pts, nrm, squashed, (w / ws, 1.0), min_abs_nx=0.95, block=blk)
             if len(pts) > n0:  # on the fine pass's smoothed luma
                 shift, _ = band_centres(self._rbufs["blur"], pts[n0:], nrm[n0:], reach=int(w / ws * 11) // 2 + 5)
                 pts[n0:] += shift[:, None] * nrm[n0:]
@@ -288,28 +272,15 @@ class Detector:
         # legs below (sampled on the tiny grass mask, beyond the line's width)
         if len(pts):
             raw = g.raw
-            th_, tw_ = raw.shape
-            d = 0.5 * kf + 4.0
-            fx_, fy_ = tw_ / w, th_ / h
-            sx = pts[:, 0] + d * nrm[:, 0]
-            sy = pts[:, 1] + d * nrm[:, 1]
-            a1 = raw[np.clip((sy * fy_).astype(np.intp), 0, th_ - 1), np.clip((sx * fx_).astype(np.intp), 0, tw_ - 1)]
-            sx = pts[:, 0] - d * nrm[:, 0]
-            sy = pts[:, 1] - d * nrm[:, 1]
-            a2 = raw[np.clip((sy * fy_).astype(np.intp), 0, th_ - 1), np.clip((sx * fx_).astype(np.intp), 0, tw_ - 1)]
-            keep = (a1 > 0) | (a2 > 0)  # one side may be the boards (the far touchline)
-            if not keep.all():
+            keep = beside_grass(pts, np.ascontiguousarray(nrm, np.float64), 0.5 * kf + 4.0, raw, raw.shape[1] / w, raw.shape[0] / h)
+            if not keep.all():  # one side may be the boards (the far touchline)
                 pts, nrm = pts[keep], nrm[keep]
         # connected chains of line points (coarse raster: gaps of a few pixels
         # bridge); blobs (kits, the ball, a crowd seen through) are dropped
-        occ = self._occ_c
-        occ[:] = 0
-        cxi = np.clip((pts[:, 0] * (wc / w)).astype(np.intp), 0, wc - 1)
-        cyi = np.clip((pts[:, 1] * (hc / h)).astype(np.intp), 0, hc - 1)
-        occ[cyi, cxi] = 255
-        _, lab = cv2.connectedComponents(occ, labels=self._lab_c, connectivity=8)
-        labels = lab[cyi, cxi]
-        keep = _chain_extent(labels, cxi, cyi) + 1 >= max(5, 0.008 * wc)
+        cxi = np.clip((pts[:, 0] * (wc / w)).astype(np.int64), 0, wc - 1)
+        cyi = np.clip((pts[:, 1] * (hc / h)).astype(np.int64), 0, hc - 1)
+        labels, ext_x, ext_y = chains(cxi, cyi, 1, self._chain_grid)
+        keep = np.maximum(ext_x, ext_y) + 1 >= max(5, 0.008 * wc)
         if not keep.all():
             pts, nrm, labels = pts[keep], nrm[keep], labels[keep]
         lm = self._linemask_small
@@ -432,22 +403,6 @@ class Detector:
         t4 = time.perf_counter()
         timings.update(lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
         return lines, ellipses
-
-def _chain_extent(labels: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Per point, the larger side of its chain's bounding box (max - min of the
-    integer ``x`` and ``y`` (N,) over the points with the same label (N,)):
-    connectedComponentsWithStats without the cost of stats for every component."""
-    if len(labels) == 0:
-        return np.zeros(0, np.intp)
-    order = np.argsort(labels, kind="stable")
-    ls = labels[order]
-    starts = np.flatnonzero(np.r_[True, ls[1:] != ls[:-1]])
-    xs, ys = x[order], y[order]
-    ext = np.maximum(np.maximum.reduceat(xs, starts) - np.minimum.reduceat(xs, starts), np.maximum.reduceat(ys, starts) - np.minimum.reduceat(ys, starts))
-    out = np.empty(len(labels), np.intp)
-    out[order] = np.repeat(ext, np.diff(np.r_[starts, len(ls)]))
-    return out
-
 
 def _cut_by_line(e, P: np.ndarray, lines: list) -> bool:
     """Whether a straight line cuts the ellipse with all the support ``P`` (N, 2) on

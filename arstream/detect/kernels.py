@@ -21,7 +21,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "conic_band", "hough_lines", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "grid_clear", "hough_lines", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -511,6 +511,170 @@ def band_scan(B, pts, nrm, r):
     return shift, width
 
 
+@nb.njit(**_JIT)
+def _cell(v, scale, rint, n):
+    """Grid cell of a coordinate: ``v * scale`` rounded (``rint``) or truncated, clamped to [0, n)."""
+    c = v * scale
+    i = int(np.rint(c)) if rint else int(c)
+    return min(max(i, 0), n - 1)
+
+
+@nb.njit(**_JIT)
+def grid_clear(pts, ep, sx, sy, rint, rx, ry, grid):
+    """Which points ``ep`` have no point of ``pts`` near them on a grid.
+
+    Each point (x, y) falls in the cell (x ``sx``, y ``sy``), rounded
+    (``rint``) or truncated, clamped to the grid. A point of ``ep`` is clear
+    when no point of ``pts`` lies within ``rx`` cells across and ``ry`` cells
+    down of its own (what dilating the occupied cells by a (2 ry + 1) x
+    (2 rx + 1) rectangle and testing its cell does).
+
+    Parameters
+    ----------
+    pts : (N, 2) float64 points (x, y)
+    ep : (M, 2) float64 points to test
+    sx, sy : float, cells per unit of x and y
+    rint : bool, round to the nearest cell (else truncate)
+    rx, ry : int, reach in cells
+    grid : (gh, gw) uint8 scratch, zero on entry and on return
+
+    Returns
+    -------
+    (M,) bool
+    """
+    gh, gw = grid.shape
+    n = pts.shape[0]
+    for i in range(n):
+        grid[_cell(pts[i, 1], sy, rint, gh), _cell(pts[i, 0], sx, rint, gw)] = 1
+    m = ep.shape[0]
+    keep = np.ones(m, np.bool_)
+    for i in range(m):
+        cy = _cell(ep[i, 1], sy, rint, gh)
+        cx = _cell(ep[i, 0], sx, rint, gw)
+        for y in range(max(cy - ry, 0), min(cy + ry + 1, gh)):
+            for x in range(max(cx - rx, 0), min(cx + rx + 1, gw)):
+                if grid[y, x]:
+                    keep[i] = False
+                    break
+            if not keep[i]:
+                break
+    for i in range(n):
+        grid[_cell(pts[i, 1], sy, rint, gh), _cell(pts[i, 0], sx, rint, gw)] = 0
+    return keep
+
+
+@nb.njit(**_JIT)
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@nb.njit(**_JIT)
+def chains(xi, yi, reach, grid):
+    """Connected chains of points on an integer grid.
+
+    Two points are linked when their cells (``xi``, ``yi``) are at most
+    ``reach`` cells apart along both axes; a chain is a connected set of
+    links. (Reach 1 is 8-connectivity of the occupied cells; reach 3 is
+    8-connectivity after dilating them by a 3 x 3 square.)
+
+    Parameters
+    ----------
+    xi, yi : (N,) int64 cells, inside the grid
+    reach : int
+    grid : (gh, gw) int32 scratch, -1 on entry and on return
+
+    Returns
+    -------
+    labels : (N,) int32 chain of each point, 1..K in the raster order of the
+        chains' first cells
+    ext_x, ext_y : (N,) int64 the width and height (max - min of the cells)
+        of each point's chain
+    """
+    gh, gw = grid.shape
+    n = xi.shape[0]
+    parent = np.arange(n)
+    # one representative point per occupied cell
+    for i in range(n):
+        r = grid[yi[i], xi[i]]
+        if r < 0:
+            grid[yi[i], xi[i]] = i
+        else:
+            parent[i] = r
+    for i in range(n):
+        if grid[yi[i], xi[i]] != i:
+            continue
+        for y in range(max(yi[i] - reach, 0), min(yi[i] + reach + 1, gh)):
+            for x in range(max(xi[i] - reach, 0), min(xi[i] + reach + 1, gw)):
+                j = grid[y, x]
+                if j >= 0:
+                    a = _root(parent, i)
+                    b = _root(parent, j)
+                    if a != b:
+                        parent[max(a, b)] = min(a, b)
+    first = np.full(n, gh * gw)
+    x0 = np.full(n, gw)
+    x1 = np.full(n, -1)
+    y0 = np.full(n, gh)
+    y1 = np.full(n, -1)
+    for i in range(n):
+        r = _root(parent, i)
+        parent[i] = r
+        first[r] = min(first[r], yi[i] * gw + xi[i])
+        x0[r] = min(x0[r], xi[i])
+        x1[r] = max(x1[r], xi[i])
+        y0[r] = min(y0[r], yi[i])
+        y1[r] = max(y1[r], yi[i])
+        grid[yi[i], xi[i]] = -1
+    roots = np.flatnonzero(first < gh * gw)
+    rank = np.empty(n, np.int32)
+    o = np.argsort(first[roots])
+    for k in range(o.shape[0]):
+        rank[roots[o[k]]] = k + 1
+    labels = np.empty(n, np.int32)
+    ext_x = np.empty(n, np.int64)
+    ext_y = np.empty(n, np.int64)
+    for i in range(n):
+        r = parent[i]
+        labels[i] = rank[r]
+        ext_x[i] = x1[r] - x0[r]
+        ext_y[i] = y1[r] - y0[r]
+    return labels, ext_x, ext_y
+
+
+@nb.njit(**_JIT)
+def beside_grass(pts, nrm, d, mask, fx, fy):
+    """Which points have grass on at least one side: ``mask`` (a small image,
+    non-zero on grass) at ``pts`` +- ``d`` ``nrm`` scaled by (``fx``, ``fy``) to
+    its cells (truncated, clamped).
+
+    Parameters
+    ----------
+    pts, nrm : (N, 2) float64 points and unit normals
+    d : float, distance either side (units of pts)
+    mask : (mh, mw) uint8
+    fx, fy : float, mask cells per unit of x and y
+
+    Returns
+    -------
+    (N,) bool
+    """
+    mh, mw = mask.shape
+    n = pts.shape[0]
+    keep = np.empty(n, np.bool_)
+    for i in range(n):
+        ok = False
+        for sgn in (1.0, -1.0):
+            x = pts[i, 0] + sgn * d * nrm[i, 0]
+            y = pts[i, 1] + sgn * d * nrm[i, 1]
+            if mask[_cell(y, fy, False, mh), _cell(x, fx, False, mw)] > 0:
+                ok = True
+        keep[i] = ok
+    return keep
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -520,6 +684,10 @@ def warm_up() -> None:
     conic_band(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 0.0, False)
     z = np.zeros(1, np.int64)
     hough_lines(np.zeros((1, 2)), np.zeros((1, 2)), z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
+    p = np.zeros((1, 2))
+    grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
+    chains(z, z, 1, np.full((2, 2), -1, np.int32))
+    beside_grass(p, p, 1.0, th, 1.0, 1.0)
 
 
 _warm_thread: threading.Thread | None = None
