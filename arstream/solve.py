@@ -33,8 +33,8 @@ from itertools import combinations
 import cv2
 import numpy as np
 import scipy.optimize
-from scipy.spatial import cKDTree
 
+from arstream.kernels import grid_nearest, point_grid
 from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
 from geometry.homography import homographies_from_lines
@@ -333,28 +333,40 @@ class ModelSamples:
 
 
 class LineIndex:
-    """Nearest detected line pixel lookup (a k-d tree over sub-pixel line points).
+    """Nearest detected line pixel lookup.
+
+    The points are bucketed in a grid of ``cell``-pixel squares over their
+    bounding box (:func:`arstream.kernels.point_grid`); a query searches the
+    cells within its radius (:func:`arstream.kernels.grid_nearest`): exact
+    nearest neighbours, at a fraction of a k-d tree's build cost for the few
+    thousand points and queries of a frame.
 
     Parameters
     ----------
-    points : (M, 2) float64 line-pixel centres, pixels
+    points : (M, 2) float64 line-pixel centres, pixels (finite)
+    cell : grid cell size, pixels
     """
 
-    def __init__(self, points: np.ndarray):
-        p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    def __init__(self, points: np.ndarray, *, cell: float = 8.0):
+        p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 2))
+        if not np.isfinite(p).all():
+            raise ValueError("line points must be finite")
         self.points = p
-        self.tree = cKDTree(p) if len(p) else None
+        if len(p):  # (at most about 1024 cells a side)
+            self._order, self._starts, self._grid = point_grid(p, float(cell), 1024)
 
     def __len__(self) -> int:
         return len(self.points)
 
     def nearest(self, q: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-        """Distances (N,) and nearest points (N, 2) for queries (N, 2); inf / NaN beyond ``radius``."""
-        if self.tree is None or len(q) == 0:
+        """Distances (N,) and nearest points (N, 2) for queries (N, 2); inf / NaN
+        where no point is closer than ``radius`` (or the query is not finite)."""
+        q = np.ascontiguousarray(np.asarray(q, dtype=np.float64).reshape(-1, 2))
+        if len(self.points) == 0 or len(q) == 0:
             return np.full(len(q), np.inf), np.full((len(q), 2), np.nan)
-        d, idx = self.tree.query(q, k=1, distance_upper_bound=radius)
-        ok = np.isfinite(d)
+        d, idx = grid_nearest(self.points, self._order, self._starts, *self._grid, q, float(radius))
         out = np.full((len(q), 2), np.nan)
+        ok = idx >= 0
         out[ok] = self.points[idx[ok]]
         return d, out
 

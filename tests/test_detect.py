@@ -496,8 +496,8 @@ def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly
-    # the signatures detection calls, so that nothing compiles mid-clip
-    from arstream.detect import kernels
+    # the signatures detection and tracking call, so that nothing compiles mid-clip
+    from arstream import kernels
 
     kernels.warm_up()
     names = [n for n in kernels.__all__ if not n.startswith("warm_up")]
@@ -510,7 +510,11 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
         assert d.lines  # the Hough loop and the ellipse refinement ran
     clip = SynthClip("hard", seed=3, frames=250, size=(640, 360))
     for i in (150, 160):  # the whip pan: smeared bands, centred between their edges
-        det.process(clip.render(i)).resolve()
+        d = det.process(clip.render(i)).resolve()
+    # the tracker's nearest-line-pixel lookups
+    from arstream.solve import LineIndex
+
+    LineIndex(d.line_points).nearest(d.line_points[:50] + 1.0, 4.0)
     after = {n: len(getattr(kernels, n).signatures) for n in names}
     assert after == before
 
@@ -520,7 +524,7 @@ def test_chains_are_the_connected_components_of_the_dilated_cells(reach):
     # kernels.chains links points whose cells are within `reach` along both axes:
     # reach 1 is the 8-connectivity of the occupied cells, reach 3 that of the
     # cells dilated by a 3x3 square (what the detector's chain tests used before)
-    from arstream.detect import kernels
+    from arstream import kernels
 
     rng = np.random.default_rng(reach)
     h, w = 60, 90
@@ -545,7 +549,7 @@ def test_chains_are_the_connected_components_of_the_dilated_cells(reach):
 
 
 def test_grid_clear_is_the_dilated_occupancy_test():
-    from arstream.detect import kernels
+    from arstream import kernels
 
     rng = np.random.default_rng(5)
     h, w = 40, 70

@@ -470,3 +470,38 @@ def test_image_motion_by_frame():
         tr.process(i, i / clip.fps, None, truth_detections(clip.camera(i), seed=i))
     assert tr.image_motion(3) is None and tr.image_motion(57) is not None  # long gone; the last one
     assert len(tr._motion_at) <= 17
+
+
+@pytest.mark.parametrize("radius", [0.75, 2.5, 25.0, 1e9])  # (exact binary fractions: "exactly the radius away" is exact)
+@pytest.mark.parametrize("cell", [3.0, 8.0])
+def test_line_index_finds_the_nearest_point_closer_than_the_radius(radius, cell):
+    # the grid search against brute force: exact nearest neighbours, strictly
+    # closer than the radius (points off the grid's cells and queries far outside
+    # the points' box included; rounded points make ties, which go to the lower index)
+    rng = np.random.default_rng(int(radius * 10) + int(cell))
+    P = np.round(rng.uniform(-20, [1300, 740], (1500, 2)))
+    Q = np.vstack([rng.uniform(-60, [1340, 780], (400, 2)), P[20:80] + rng.uniform(-0.5, 0.5, (60, 2)), [[np.nan, 3.0], [np.inf, 0.0]]])
+    if radius < 100:  # exactly the radius away from a point: not closer
+        Q = np.vstack([Q, P[:20] + [[0.0, radius]]])
+    d, q = LineIndex(P, cell=cell).nearest(Q, radius)
+    D = np.hypot(Q[:, None, 0] - P[None, :, 0], Q[:, None, 1] - P[None, :, 1])
+    D[~np.isfinite(D)] = np.inf
+    j = np.argmin(D, axis=1)  # the lowest index among equals
+    dmin = D[np.arange(len(Q)), j]
+    hit = dmin < radius
+    assert 0 < hit.sum() < len(Q) - 1
+    np.testing.assert_array_equal(np.isfinite(d), hit)
+    np.testing.assert_allclose(d[hit], dmin[hit], rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(q[hit], P[j[hit]])
+    assert np.isnan(q[~hit]).all()
+
+
+def test_line_index_edge_cases():
+    d, q = LineIndex(np.zeros((0, 2))).nearest(np.array([[1.0, 2.0]]), 5.0)
+    assert d[0] == np.inf and np.isnan(q).all()
+    one = LineIndex(np.array([[10.0, 10.0]]))
+    d, q = one.nearest(np.array([[13.0, 14.0], [10.0, 16.0], [40.0, 10.0]]), 6.0)
+    np.testing.assert_allclose(d, [5.0, np.inf, np.inf])  # 6.0 away is not closer than 6
+    assert one.nearest(np.zeros((0, 2)), 3.0)[0].shape == (0,)
+    with pytest.raises(ValueError, match="finite"):
+        LineIndex(np.array([[0.0, 0.0], [np.nan, 1.0]]))

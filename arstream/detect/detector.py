@@ -12,7 +12,7 @@ from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
-from .kernels import beside_grass, chains, grid_clear, warm_up_async
+from arstream.kernels import beside_grass, chains, grid_clear, warm_up_async
 from .results import DetectedEllipse, DetectedLine, Detections
 from .ridges import RidgePoints, band_centres, ridge_points
 from .segments import group_lines

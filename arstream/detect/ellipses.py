@@ -29,7 +29,7 @@ import numpy as np
 
 from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
 
-from .kernels import conic_band
+from arstream.kernels import conic_band
 
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
 

@@ -24,7 +24,7 @@ import math
 import cv2
 import numpy as np
 
-from .kernels import hough_lines
+from arstream.kernels import hough_lines
 
 __all__ = ["LineGroup", "group_lines"]
 

@@ -1,10 +1,13 @@
-"""Compiled per-pixel and per-point loops of the detector (numba).
+"""Compiled per-pixel and per-point loops of detection and tracking (numba).
 
 The detector's stages are whole-image OpenCV operations followed by work on
 the few thousand line pixels they leave. Written as numpy expressions, that
 work is dozens of passes over small arrays, each paying numpy's per-call
 overhead, and it holds the GIL between them; here each is one compiled loop
-that releases the GIL (the pipeline runs detection on its own thread).
+that releases the GIL (the pipeline runs detection on its own thread). The
+tracker's nearest-line-pixel lookups (:class:`arstream.solve.LineIndex`) are
+a grid of the points and a compiled search over it: building a k-d tree
+cost more per frame than all its queries.
 
 Compiled on first use and cached next to this file (numba's ``cache=True``;
 the first run after an install takes some seconds more). Loading the cached
@@ -21,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "grid_clear", "hough_lines", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "grid_clear", "grid_nearest", "hough_lines", "point_grid", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -675,6 +678,114 @@ def beside_grass(pts, nrm, d, mask, fx, fy):
     return keep
 
 
+@nb.njit(**_JIT)
+def point_grid(pts, cell, max_side):
+    """Points bucketed by the cells of a grid over their bounding box (a
+    counting sort), for :func:`grid_nearest`.
+
+    The cell of (x, y) is (floor((x - x0) / cell), floor((y - y0) / cell)),
+    (x0, y0) the least coordinates; the cell grows where the box would be
+    more than ``max_side`` cells a side.
+
+    Parameters
+    ----------
+    pts : (N, 2) float64 finite points, N >= 1
+    cell : float, cell size (units of pts)
+    max_side : int
+
+    Returns
+    -------
+    order : (N,) int64 point indices, cell after cell (raster order of the cells)
+    starts : (gw gh + 1,) int64, cell c holds order[starts[c]:starts[c + 1]]
+    grid : (x0, y0, cell, gw, gh)
+    """
+    n = pts.shape[0]
+    x0 = np.inf
+    y0 = np.inf
+    x1 = -np.inf
+    y1 = -np.inf
+    for i in range(n):
+        x0 = min(x0, pts[i, 0])
+        x1 = max(x1, pts[i, 0])
+        y0 = min(y0, pts[i, 1])
+        y1 = max(y1, pts[i, 1])
+    cell = max(cell, max(x1 - x0, y1 - y0) / max_side)
+    gw = int((x1 - x0) / cell) + 1
+    gh = int((y1 - y0) / cell) + 1
+    cid = np.empty(n, np.int64)
+    starts = np.zeros(gw * gh + 1, np.int64)
+    for i in range(n):
+        cx = int(min((pts[i, 0] - x0) / cell, gw - 1.0))
+        cy = int(min((pts[i, 1] - y0) / cell, gh - 1.0))
+        cid[i] = cy * gw + cx
+        starts[cid[i] + 1] += 1
+    for c in range(gw * gh):
+        starts[c + 1] += starts[c]
+    fill = starts[:-1].copy()
+    order = np.empty(n, np.int64)
+    for i in range(n):
+        order[fill[cid[i]]] = i
+        fill[cid[i]] += 1
+    return order, starts, (x0, y0, cell, gw, gh)
+
+
+@nb.njit(**_JIT)
+def grid_nearest(pts, order, starts, x0, y0, cell, gw, gh, q, radius):
+    """The nearest point of ``pts`` to each query, searched on its
+    :func:`point_grid` ring by ring over the cells within ``radius`` (exact;
+    ties go to the lower index).
+
+    Parameters
+    ----------
+    pts : (N, 2) float64 points; order, starts, x0, y0, cell, gw, gh : their grid
+    q : (M, 2) float64 queries (a non-finite query finds nothing)
+    radius : float, only points closer than this (strictly) count
+
+    Returns
+    -------
+    d : (M,) float64 distances (inf where none is closer than ``radius``)
+    idx : (M,) int64 indices into ``pts`` (-1 where none)
+    """
+    m = q.shape[0]
+    d = np.full(m, np.inf)
+    idx = np.full(m, -1, np.int64)
+    k = int(min(np.ceil(radius / cell), max(gw, gh)))
+    r2 = radius * radius
+    for i in range(m):
+        qx = q[i, 0]
+        qy = q[i, 1]
+        if not (np.isfinite(qx) and np.isfinite(qy)):
+            continue
+        cx = int(min(max((qx - x0) / cell, 0.0), gw - 1.0))
+        cy = int(min(max((qy - y0) / cell, 0.0), gh - 1.0))
+        best = r2
+        bj = -1
+        # rings of cells outwards; the points of ring rr are at least (rr - 1) cells away
+        for rr in range(k + 1):
+            lim = (rr - 1) * cell
+            if rr > 1 and best < lim * lim:
+                break
+            for y in range(max(cy - rr, 0), min(cy + rr + 1, gh)):
+                edge = y == cy - rr or y == cy + rr
+                step = 1 if edge else 2 * rr
+                for x in range(cx - rr, cx + rr + 1, max(step, 1)):
+                    if x < 0 or x >= gw:
+                        continue
+                    c = y * gw + x
+                    for t in range(starts[c], starts[c + 1]):
+                        j = order[t]
+                        dx = pts[j, 0] - qx
+                        dy = pts[j, 1] - qy
+                        dd = dx * dx + dy * dy
+                        if dd < best or (dd == best and bj >= 0 and j < bj):
+                            best = dd
+                            bj = j
+        if bj >= 0:
+            d[i] = np.sqrt(best)
+            idx[i] = bj
+    return d, idx
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -688,6 +799,8 @@ def warm_up() -> None:
     grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
+    order, starts, grid = point_grid(p, 8.0, 1024)
+    grid_nearest(p, order, starts, *grid, p, 2.5)
 
 
 _warm_thread: threading.Thread | None = None
