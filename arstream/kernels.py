@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "grid_clear", "grid_nearest", "hough_lines", "point_grid", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -786,6 +786,212 @@ def grid_nearest(pts, order, starts, x0, y0, cell, gw, gh, q, radius):
     return d, idx
 
 
+@nb.njit(**_JIT)
+def _eigvec3(M, lam):
+    """Unit eigenvector of the 3x3 ``M`` for its eigenvalue ``lam``: the largest
+    cross product of two rows of M - lam I (zeros when there is none)."""
+    a0 = M[0, 0] - lam
+    a1 = M[0, 1]
+    a2 = M[0, 2]
+    b0 = M[1, 0]
+    b1 = M[1, 1] - lam
+    b2 = M[1, 2]
+    c0 = M[2, 0]
+    c1 = M[2, 1]
+    c2 = M[2, 2] - lam
+    best = np.zeros(3)
+    bn = 0.0
+    for k in range(3):
+        if k == 0:
+            x = a1 * b2 - a2 * b1
+            y = a2 * b0 - a0 * b2
+            z = a0 * b1 - a1 * b0
+        elif k == 1:
+            x = a1 * c2 - a2 * c1
+            y = a2 * c0 - a0 * c2
+            z = a0 * c1 - a1 * c0
+        else:
+            x = b1 * c2 - b2 * c1
+            y = b2 * c0 - b0 * c2
+            z = b0 * c1 - b1 * c0
+        nn = x * x + y * y + z * z
+        if nn > bn:
+            bn = nn
+            best[0] = x
+            best[1] = y
+            best[2] = z
+    if bn > 0:
+        best /= np.sqrt(bn)
+    return best
+
+
+@nb.njit(**_JIT)
+def direct_fit(S):
+    """The direct least-squares ellipse fit (Halir-Flusser) from a scatter matrix.
+
+    With S = [[S1, S2], [S2^T, S3]] (3x3 blocks) of the monomials ``[x^2, xy,
+    y^2, x, y, 1]``, the quadratic part ``a1`` is the eigenvector of
+    ``C1^-1 (S1 - S2 S3^-1 S2^T)`` with ``4 A C - B^2 > 0`` (of least
+    |eigenvalue| when rounding makes more than one pass), and the linear part
+    ``-S3^-1 S2^T a1``. The reduced 3x3 problem has real eigenvalues (roots of
+    its characteristic cubic; eigenvectors by cross products).
+
+    Parameters
+    ----------
+    S : (6, 6) float64
+
+    Returns
+    -------
+    coef : (6,) [A, B, C, D, E, F] (unit quadratic part; NaN when not ok)
+    ok : bool, False for a degenerate scatter or no elliptical solution
+    """
+    coef = np.full(6, np.nan)
+    # T = -S3^-1 S2^T: Gaussian elimination with partial pivoting
+    A = S[3:, 3:].copy()
+    R = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = -S[j, 3 + i]
+    scale = 0.0
+    for i in range(3):
+        for j in range(3):
+            scale = max(scale, abs(A[i, j]))
+    if not scale > 0:
+        return coef, False
+    for c in range(3):
+        p = c
+        for r in range(c + 1, 3):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if not abs(A[p, c]) > 1e-14 * scale:
+            return coef, False
+        if p != c:
+            for j in range(3):
+                t = A[c, j]
+                A[c, j] = A[p, j]
+                A[p, j] = t
+                t = R[c, j]
+                R[c, j] = R[p, j]
+                R[p, j] = t
+        for r in range(c + 1, 3):
+            f = A[r, c] / A[c, c]
+            for j in range(3):
+                A[r, j] -= f * A[c, j]
+                R[r, j] -= f * R[c, j]
+    T = np.empty((3, 3))
+    for c in range(2, -1, -1):
+        for j in range(3):
+            v = R[c, j]
+            for k in range(c + 1, 3):
+                v -= A[c, k] * T[k, j]
+            T[c, j] = v / A[c, c]
+    # M = S1 + S2 T, then C1^-1 M: rows (M[2] / 2, -M[1], M[0] / 2)
+    M = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            v = S[i, j]
+            for k in range(3):
+                v += S[i, 3 + k] * T[k, j]
+            M[i, j] = v
+    Mp = np.empty((3, 3))
+    for j in range(3):
+        Mp[0, j] = 0.5 * M[2, j]
+        Mp[1, j] = -M[1, j]
+        Mp[2, j] = 0.5 * M[0, j]
+    for i in range(3):
+        for j in range(3):
+            if not np.isfinite(Mp[i, j]):
+                return coef, False
+    # eigenvalues: the real roots of the characteristic cubic l^3 + a l^2 + b l + c
+    a = -(Mp[0, 0] + Mp[1, 1] + Mp[2, 2])
+    b = Mp[0, 0] * Mp[1, 1] - Mp[0, 1] * Mp[1, 0] + Mp[0, 0] * Mp[2, 2] - Mp[0, 2] * Mp[2, 0] + Mp[1, 1] * Mp[2, 2] - Mp[1, 2] * Mp[2, 1]
+    det = (
+        Mp[0, 0] * (Mp[1, 1] * Mp[2, 2] - Mp[1, 2] * Mp[2, 1])
+        - Mp[0, 1] * (Mp[1, 0] * Mp[2, 2] - Mp[1, 2] * Mp[2, 0])
+        + Mp[0, 2] * (Mp[1, 0] * Mp[2, 1] - Mp[1, 1] * Mp[2, 0])
+    )
+    c = -det
+    p3 = (b - a * a / 3.0) / 3.0
+    q2 = 0.5 * (2.0 * a * a * a / 27.0 - a * b / 3.0 + c)
+    disc = q2 * q2 + p3 * p3 * p3
+    lams = np.empty(3)
+    nl = 0
+    if disc <= 0.0 and p3 < 0.0:
+        r = np.sqrt(-p3)
+        cosv = min(max(-q2 / (r * r * r), -1.0), 1.0)
+        phi = np.arccos(cosv)
+        for k in range(3):
+            lams[k] = 2.0 * r * np.cos((phi + 2.0 * np.pi * k) / 3.0) - a / 3.0
+        nl = 3
+    else:
+        sd = np.sqrt(max(disc, 0.0))
+        lams[0] = np.cbrt(-q2 + sd) + np.cbrt(-q2 - sd) - a / 3.0
+        nl = 1
+    best = np.inf
+    a1 = np.zeros(3)
+    for k in range(nl):
+        v = _eigvec3(Mp, lams[k])
+        if 4.0 * v[0] * v[2] - v[1] * v[1] > 0 and abs(lams[k]) < best:
+            best = abs(lams[k])
+            a1 = v
+    if best == np.inf:
+        return coef, False
+    for i in range(3):
+        coef[i] = a1[i]
+        coef[3 + i] = T[i, 0] * a1[0] + T[i, 1] * a1[1] + T[i, 2] * a1[2]
+    return coef, True
+
+
+@nb.njit(**_JIT)
+def refine_conic(coef0, q, nrm, idx, s, tol, first_band):
+    """Iteratively reweighted direct fits of a conic on the points near it
+    (:func:`arstream.detect.ellipses._refine`'s loop): the points within
+    ``first_band + 1`` (working px) of the hypothesis, then three rounds, in
+    bands of ``first_band``, ``tol`` and ``min(tol, 1)`` px, of
+    :func:`conic_band` (normals agreeing, Sampson gradient weights) and
+    :func:`direct_fit` on the selected points.
+
+    Parameters
+    ----------
+    coef0 : (6,) conic in normalised coordinates q = s (p - m)
+    q, nrm : (N, 2) normalised points and unit normals
+    idx : (M,) int64 the candidate points
+    s : float, normalised units per working pixel
+    tol, first_band : float, working pixels
+
+    Returns
+    -------
+    coef : (6,) the refined conic
+    sel : (K,) int64 the last round's points (indices into q)
+    rms : float, their RMS Sampson distance to ``coef`` (working px)
+    ok : bool, False when a round keeps fewer than 10 points or a fit fails
+    """
+    coef = coef0.copy()
+    near, _, _ = conic_band(coef, q, nrm, idx, (first_band + 1.0) * s, 0.0, False)
+    cand = idx[near]
+    empty = np.zeros(0, np.int64)
+    if cand.shape[0] < 10:
+        return coef, empty, 0.0, False
+    sel = near[:0]
+    for r in range(3):
+        band = first_band if r == 0 else (tol if r == 1 else min(tol, 1.0))
+        sel, _, S = conic_band(coef, q, nrm, cand, band * s, 0.95, True)
+        if np.count_nonzero(sel) < 10:
+            return coef, empty, 0.0, False
+        c2, ok = direct_fit(S)
+        if not ok:
+            return coef, empty, 0.0, False
+        coef = c2
+    _, d, _ = conic_band(coef, q, nrm, cand, 0.0, 0.0, False)
+    acc = 0.0
+    ns = 0
+    for k in range(cand.shape[0]):
+        if sel[k]:
+            acc += d[k] * d[k]
+            ns += 1
+    return coef, cand[sel], np.sqrt(acc / ns) / s, True
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -793,6 +999,8 @@ def warm_up() -> None:
     ridge_scan(th, th, B, 5.0, 5.0, 5.5, 0.1)
     band_scan(B, np.zeros((1, 2)), np.ones((1, 2)), 6)
     conic_band(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 0.0, False)
+    direct_fit(np.eye(6))
+    refine_conic(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 1.5, 2.25)
     z = np.zeros(1, np.int64)
     hough_lines(np.zeros((1, 2)), np.zeros((1, 2)), z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
     p = np.zeros((1, 2))

@@ -566,3 +566,32 @@ def test_grid_clear_is_the_dilated_occupancy_test():
         ref = occ[np.clip(cell(ep[:, 1]), 0, h - 1), np.clip(cell(ep[:, 0]), 0, w - 1)] == 0
         assert 20 < keep.sum() < len(ep) - 20
         np.testing.assert_array_equal(keep, ref)
+
+
+def test_compiled_direct_fit_matches_the_geometry_core():
+    # kernels.direct_fit (one scatter matrix, compiled) against
+    # geometry.conics.direct_fit_scatter on arcs of known ellipses, and the
+    # degenerate scatters it must refuse
+    from arstream import kernels
+    from geometry.conics import direct_fit_scatter
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        a, b, ang = rng.uniform(0.5, 2.0), rng.uniform(0.1, 0.5), rng.uniform(-1, 1)
+        t = rng.uniform(0, rng.uniform(0.8, 2 * np.pi), 150)
+        x, y = a * np.cos(t), b * np.sin(t)
+        X = np.column_stack([x * np.cos(ang) - y * np.sin(ang) + 0.3, x * np.sin(ang) + y * np.cos(ang) - 0.2])
+        X += rng.normal(0, 0.01, X.shape)
+        D = np.column_stack([X[:, 0] ** 2, X[:, 0] * X[:, 1], X[:, 1] ** 2, X[:, 0], X[:, 1], np.ones(len(X))])
+        S = D.T @ D
+        coef, ok = kernels.direct_fit(S)
+        ref, ok_ref = direct_fit_scatter(S[None])
+        assert ok and ok_ref[0]
+        u, v = coef / np.linalg.norm(coef), ref[0] / np.linalg.norm(ref[0])
+        assert min(np.abs(u - v).max(), np.abs(u + v).max()) < 1e-7
+        assert 4 * coef[0] * coef[2] - coef[1] ** 2 > 0  # an ellipse
+    line = np.column_stack([np.linspace(0, 1, 50), np.linspace(0, 2, 50)])
+    D = np.column_stack([line[:, 0] ** 2, line[:, 0] * line[:, 1], line[:, 1] ** 2, line[:, 0], line[:, 1], np.ones(50)])
+    for S in (np.zeros((6, 6)), D.T @ D, np.full((6, 6), np.nan)):
+        coef, ok = kernels.direct_fit(S)
+        assert not ok and np.isnan(coef).all()

@@ -29,7 +29,7 @@ import numpy as np
 
 from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
 
-from arstream.kernels import conic_band
+from arstream.kernels import conic_band, direct_fit, refine_conic
 
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
 
@@ -51,30 +51,12 @@ def _monomials(q: np.ndarray) -> np.ndarray:
 
 def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`geometry.conics.direct_fit_scatter` (coef (K, 6), valid (K,)), with
-    OpenCV's small solvers for a single scatter matrix (the per-frame refinement)."""
-    return _direct_fit_one(S[0]) if len(S) == 1 else direct_fit_scatter(S)
-
-
-def _direct_fit_one(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_batched_direct_fit` for one scatter matrix (6, 6), with OpenCV's
-    small dense solvers (a few microseconds instead of numpy's per-call overhead).
-    The reduced 3x3 problem of the direct fit has real eigenvalues."""
-    ok, T = cv2.solve(S[3:, 3:], S[3:, :3], flags=cv2.DECOMP_LU)
-    if not ok:
-        return np.full((1, 6), np.nan), np.zeros(1, bool)
-    T = -T
-    M = S[:3, :3] + S[:3, 3:] @ T
-    Mp = np.array([0.5 * M[2], -M[1], 0.5 * M[0]])
-    if not np.isfinite(Mp).all():
-        return np.full((1, 6), np.nan), np.zeros(1, bool)
-    w, V = cv2.eigenNonSymmetric(Mp)  # eigenvectors in the rows
-    cond = 4 * V[:, 0] * V[:, 2] - V[:, 1] ** 2
-    good = cond > 0
-    if not good.any():
-        return np.full((1, 6), np.nan), np.zeros(1, bool)
-    j = int(np.argmin(np.where(good, np.abs(w.ravel()), np.inf)))
-    a1 = V[j]
-    return np.concatenate([a1, T @ a1])[None], np.ones(1, bool)
+    the compiled fit (:func:`arstream.kernels.direct_fit`) for a single scatter
+    matrix (numpy's batched solvers cost tens of microseconds per call)."""
+    if len(S) != 1:
+        return direct_fit_scatter(S)
+    coef, ok = direct_fit(np.ascontiguousarray(S[0], np.float64))
+    return coef[None], np.array([ok])
 
 
 def conic_values(coef: np.ndarray, q: np.ndarray):
@@ -416,30 +398,15 @@ def _refine(coef0, q, nrm, fidx, s, tol, first_band=None):
     """Inliers of a hypothesis and iteratively reweighted direct fits (Sampson
     gradient weights, which make the algebraic fit nearly geometric) with a
     shrinking inlier band, in normalised coordinates: (coef, inlier indices,
-    rms Sampson distance in working px). ``first_band`` (working px, default
-    1.5 ``tol``): the first inlier band (wider for a prediction from the
-    previous frame)."""
+    rms Sampson distance in working px), or None. ``first_band`` (working px,
+    default 1.5 ``tol``): the first inlier band (wider for a prediction from
+    the previous frame). The later bands lie inside the first: only the points
+    near the hypothesis take part (the fits move the conic by a fraction of a
+    pixel). One compiled loop (:func:`arstream.kernels.refine_conic`)."""
     if first_band is None:
         first_band = 1.5 * tol
-    coef = np.ascontiguousarray(coef0, np.float64)
-    # the later bands lie inside the first: work on the points near the
-    # hypothesis only (the fits move the conic by a fraction of a pixel)
-    near, _, _ = conic_band(coef, q, nrm, fidx, (first_band + 1.0) * s, 0.0, False)
-    fidx = fidx[near]
-    if len(fidx) < 10:
-        return None
-    sel = None
-    for band in (first_band, tol, min(tol, 1.0)):
-        sel, _, S = conic_band(coef, q, nrm, fidx, band * s, 0.95, True)
-        if np.count_nonzero(sel) < 10:
-            return None
-        c2, ok = _batched_direct_fit(S[None])
-        if not ok[0]:
-            return None
-        coef = np.ascontiguousarray(c2[0], np.float64)
-    _, d, _ = conic_band(coef, q, nrm, fidx, 0.0, 0.0, False)
-    rms = float(np.sqrt(np.mean(d[sel] ** 2))) / s
-    return coef, fidx[sel], rms
+    coef, idx, rms, ok = refine_conic(np.ascontiguousarray(coef0, np.float64), q, nrm, fidx.astype(np.int64, copy=False), float(s), float(tol), float(first_band))
+    return (coef, idx, float(rms)) if ok else None
 
 
 def _validate(e: Ellipse, P_full, rms, size, visible, is_arc, *, s_full, min_points, min_coverage, min_visible, max_rms):
