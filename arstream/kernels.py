@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -992,24 +992,80 @@ def refine_conic(coef0, q, nrm, idx, s, tol, first_band):
     return coef, cand[sel], np.sqrt(acc / ns) / s, True
 
 
+@nb.njit(**_JIT)
+def perimeter_bins(pts, cx, cy, angle, a, b, bins, density, spacing):
+    """Support of an ellipse's perimeter in bins of its parametric angle
+    (:func:`arstream.detect.ellipses.coverage`).
+
+    The perimeter is cut into ``bins`` equal steps of the parametric angle; a
+    bin is covered when it holds at least ``density`` of the points expected
+    along its arc length at one point per ``spacing``, and at least one.
+
+    Parameters
+    ----------
+    pts : (N, 2) float64 points near the ellipse
+    cx, cy, angle, a, b : float, the ellipse (centre, major-axis direction, semi-axes)
+    bins : int
+    density, spacing : float
+
+    Returns
+    -------
+    cov : float, covered arc length over the whole perimeter
+    covered : (bins,) bool
+    seg : (bins,) float64 arc length of each bin
+    mid : (bins, 2) float64 the perimeter point in the middle of each bin
+    """
+    ca = np.cos(angle)
+    sa = np.sin(angle)
+    cnt = np.zeros(bins, np.int64)
+    k2 = bins / (2.0 * np.pi)
+    for i in range(pts.shape[0]):
+        dx = pts[i, 0] - cx
+        dy = pts[i, 1] - cy
+        u = (dx * ca + dy * sa) / a
+        v = (-dx * sa + dy * ca) / b
+        k = int((np.arctan2(v, u) + np.pi) * k2) % bins
+        cnt[k] += 1
+    covered = np.zeros(bins, np.bool_)
+    seg = np.empty(bins)
+    mid = np.empty((bins, 2))
+    step = 2.0 * np.pi / bins
+    total = 0.0
+    cov = 0.0
+    for k in range(bins):
+        t = -np.pi + (k + 0.5) * step
+        st = np.sin(t)
+        ct = np.cos(t)
+        seg[k] = np.hypot(a * st, b * ct) * step
+        total += seg[k]
+        covered[k] = cnt[k] >= max(1.0, density * seg[k] / spacing)
+        if covered[k]:
+            cov += seg[k]
+        bx = a * ct
+        by = b * st
+        mid[k, 0] = cx + ca * bx - sa * by
+        mid[k, 1] = cy + sa * bx + ca * by
+    return cov / total, covered, seg, mid
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
     B = np.zeros((8, 8), np.float32)
-    ridge_scan(th, th, B, 5.0, 5.0, 5.5, 0.1)
-    band_scan(B, np.zeros((1, 2)), np.ones((1, 2)), 6)
-    conic_band(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 0.0, False)
-    direct_fit(np.eye(6))
-    refine_conic(np.ones(6), np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1, np.int64), 1.0, 1.5, 2.25)
-    z = np.zeros(1, np.int64)
-    hough_lines(np.zeros((1, 2)), np.zeros((1, 2)), z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
     p = np.zeros((1, 2))
+    z = np.zeros(1, np.int64)
+    ridge_scan(th, th, B, 5.0, 5.0, 5.5, 0.1)
+    band_scan(B, p, np.ones((1, 2)), 6)
+    conic_band(np.ones(6), p, p, z, 1.0, 0.0, False)
+    direct_fit(np.eye(6))
+    refine_conic(np.ones(6), p, p, z, 1.0, 1.5, 2.25)
+    perimeter_bins(p, 0.0, 0.0, 0.0, 2.0, 1.0, 64, 0.3, 1.0)
+    hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
     grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
-
 
 _warm_thread: threading.Thread | None = None
 _warm_lock = threading.Lock()

@@ -367,8 +367,10 @@ class Detector:
             out[ok] = gf[np.clip(yi[ok], 0, th_ - 1), np.clip(xi[ok], 0, tw_ - 1)] > 0
             return out
 
+        L = np.array([dl.line for dl in lines[:12]]).reshape(-1, 3)
+
         def is_arc(e, P):
-            return _cut_by_line(e, P, lines)
+            return _cut_by_line(e, P, L)
 
         cands = find_ellipses(
             pts[free],
@@ -404,29 +406,26 @@ class Detector:
         timings.update(lines=1e3 * (t3 - t2), ellipses=1e3 * (t4 - t3))
         return lines, ellipses
 
-def _cut_by_line(e, P: np.ndarray, lines: list) -> bool:
-    """Whether a straight line cuts the ellipse with all the support ``P`` (N, 2) on
-    its side away from the ellipse's centre: a penalty arc beyond the penalty
-    area's front line (the halfway line, through the centre circle's middle, is
-    no such line)."""
-    if not lines:
+def _cut_by_line(e, P: np.ndarray, L: np.ndarray) -> bool:
+    """Whether a straight line (a row of ``L`` (K, 3), unit normals) cuts the
+    ellipse with all the support ``P`` (N, 2) on its side away from the
+    ellipse's centre: a penalty arc beyond the penalty area's front line (the
+    halfway line, through the centre circle's middle, is no such line)."""
+    if not len(L):
         return False
     a, b = e.axes
     ca, sa = np.cos(e.angle), np.sin(e.angle)
     R = np.array([[ca, -sa], [sa, ca]])
     M = R @ np.diag([a * a, b * b]) @ R.T
-    c = np.asarray(e.center)
-    for dl in lines[:12]:
-        l = dl.line
-        n = l[:2]
-        dc = float(n @ c + l[2])
-        reach = float(np.sqrt(n @ M @ n))
-        if abs(dc) >= 0.95 * reach or abs(dc) < 0.2 * reach:
-            continue  # misses the ellipse, or passes near its centre
-        side = P @ n + l[2]
-        if np.mean(np.sign(side) != np.sign(dc)) > 0.95:
-            return True
-    return False
+    n = L[:, :2]
+    dc = n @ np.asarray(e.center) + L[:, 2]
+    reach = np.sqrt(np.einsum("ki,ij,kj->k", n, M, n))
+    # lines that cut the ellipse, away from its centre
+    cut = (np.abs(dc) < 0.95 * reach) & (np.abs(dc) >= 0.2 * reach)
+    if not cut.any():
+        return False
+    side = P @ n[cut].T + L[cut, 2]
+    return bool((np.mean(np.sign(side) != np.sign(dc[cut]), axis=0) > 0.95).any())
 
 
 def detect(image: np.ndarray, **options) -> Detections:

@@ -29,7 +29,7 @@ import numpy as np
 
 from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
 
-from arstream.kernels import conic_band, direct_fit, refine_conic
+from arstream.kernels import conic_band, direct_fit, perimeter_bins, refine_conic
 
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
 
@@ -75,7 +75,8 @@ def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.
 
     The perimeter is cut into ``bins`` equal steps of the parametric angle; a
     bin counts when it holds at least ``density`` of the points expected along
-    its arc length at one point per ``spacing`` px.
+    its arc length at one point per ``spacing`` px
+    (:func:`arstream.kernels.perimeter_bins`).
 
     Returns
     -------
@@ -83,27 +84,27 @@ def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.
     perimeter, and over the part of it where ``visible`` (a callable, points
     (N, 2) -> (N,) bool; everything when None) says a marking could be seen.
     """
-    a, b = e.axes
-    ca, sa = np.cos(e.angle), np.sin(e.angle)
-    d = pts - np.asarray(e.center)
-    u = (d[:, 0] * ca + d[:, 1] * sa) / a
-    v = (-d[:, 0] * sa + d[:, 1] * ca) / b
-    th = np.arctan2(v, u)
-    idx = ((th + np.pi) * (bins / (2 * np.pi))).astype(np.intp) % bins
-    cnt = np.bincount(idx, minlength=bins)
-    mid = -np.pi + (np.arange(bins) + 0.5) * (2 * np.pi / bins)
-    seg = np.hypot(a * np.sin(mid), b * np.cos(mid)) * (2 * np.pi / bins)
-    covered = cnt >= np.maximum(1.0, density * seg / spacing)
-    total = float(seg.sum())
-    cov = float(seg[covered].sum()) / total
-    if visible is None:
-        return cov, cov
-    bx = a * np.cos(mid)
-    by = b * np.sin(mid)
-    P = np.column_stack([e.center[0] + ca * bx - sa * by, e.center[1] + sa * bx + ca * by])
-    vis = visible(P) | covered
-    vis_len = float(seg[vis].sum())
-    return cov, (float(seg[covered].sum()) / vis_len if vis_len > 0 else 0.0)
+    bins_ = _PerimeterBins(pts, e, bins=bins, density=density, spacing=spacing)
+    return bins_.cov, bins_.visible_coverage(visible)
+
+
+class _PerimeterBins:
+    """:func:`coverage` in two steps: the coverage at once, the share of the
+    visible perimeter (which asks ``visible`` about the bins) only when wanted."""
+
+    __slots__ = ("cov", "covered", "seg", "mid")
+
+    def __init__(self, pts, e: Ellipse, *, bins=64, density=0.3, spacing=1.0):
+        a, b = e.axes
+        P = np.ascontiguousarray(pts, np.float64)
+        self.cov, self.covered, self.seg, self.mid = perimeter_bins(P, float(e.center[0]), float(e.center[1]), float(e.angle), float(a), float(b), int(bins), float(density), float(spacing))
+
+    def visible_coverage(self, visible) -> float:
+        if visible is None:
+            return self.cov
+        vis = visible(self.mid) | self.covered
+        vis_len = float(self.seg[vis].sum())
+        return float(self.seg[self.covered].sum()) / vis_len if vis_len > 0 else 0.0
 
 
 def largest_gap(pts: np.ndarray, e: Ellipse, *, bins: int = 36) -> float:
@@ -245,7 +246,8 @@ def find_ellipses(
     Dall = _monomials(q)
     free = np.ones(n, bool)
     out: list[EllipseCandidate] = []
-    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw)
+    Tfq = Tn @ np.linalg.inv(A_wf)  # frame pixels -> normalised coordinates
+    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw, Tfq)
     priors = [np.asarray(C, float) for C in (prior or ())]
     for _round in range(max_ellipses):
         accepted = None
@@ -318,7 +320,7 @@ def _search(free, labels, nlab, n_cc, Dall, ctx, *, first):
 def _try(S, fidx, ctx):
     """Fit, screen, score and refine a stack of hypotheses (scatter matrices
     (K, 6, 6)); the first that validates, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw = ctx
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq = ctx
     coef, valid = _batched_direct_fit(S)
     # plausibility in working pixels before any scoring
     cen, a, b, ang, ok = _params(_coefs_to_pixels(coef, s, m))
@@ -351,18 +353,16 @@ def _try(S, fidx, ctx):
 def _accept(coef0, fidx, ctx, *, first_band=None):
     """Refine a hypothesis (normalised coefficients (6,)) on the free points
     ``fidx`` and validate it in frame pixels: an EllipseCandidate, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw = ctx
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq = ctx
     cand = _refine(coef0, q, nrm, fidx, s, tol, first_band)
     if cand is None:
         return None
     coef_n, idx, rms_w = cand
     if rms_w > max_rms or len(idx) < min_points:
         return None
-    # the answer in frame pixels: the conic mapped through the working -> frame affinity
-    Cw = _coefs_to_pixels(coef_n[None], s, m)[0]
-    Ai = np.linalg.inv(A_wf)
+    # the answer in frame pixels: the conic pulled back through frame -> normalised coordinates
     try:
-        ell = ellipse_from_conic(Ai.T @ _coef_to_matrix(Cw) @ Ai)
+        ell = ellipse_from_conic(Tfq.T @ _coef_to_matrix(coef_n) @ Tfq)
     except ValueError:
         return None
     P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
@@ -419,16 +419,22 @@ def _validate(e: Ellipse, P_full, rms, size, visible, is_arc, *, s_full, min_poi
         return False, 0.0, 0.0, ""
     if rms > max_rms * s_full:
         return False, 0.0, 0.0, ""
-    cov, vcov = coverage(P_full, e, spacing=s_full, visible=visible)
+    pb = _PerimeterBins(P_full, e, spacing=s_full)
+    cov = pb.cov
     if cov < min_coverage:
         return False, cov, 0.0, ""
+    vcov = None
     if is_arc is not None and is_arc(e, P_full):
         kind = "arc"
-    elif vcov >= min_visible or (vcov >= 0.6 * min_visible and rms <= 0.25 * max_rms * s_full and largest_gap(P_full, e) <= 0.4):
+    elif (vcov := pb.visible_coverage(visible)) >= min_visible or (
+        vcov >= 0.6 * min_visible and rms <= 0.25 * max_rms * s_full and largest_gap(P_full, e) <= 0.4
+    ):
         # a closed circle: most of its visible perimeter supported, or at least
         # opposite arcs of it (a fast pan smears the sides away)
         kind = "circle"
     else:
         return False, cov, 0.0, ""
+    if vcov is None:
+        vcov = pb.visible_coverage(visible)
     score = float(min(1.0, vcov / 0.8) * np.exp(-((rms / s_full) / 0.6) ** 2))
     return True, cov, score, kind
