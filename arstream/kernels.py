@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -1048,6 +1048,92 @@ def perimeter_bins(pts, cx, cy, angle, a, b, bins, density, spacing):
     return cov / total, covered, seg, mid
 
 
+@nb.njit(**_JIT)
+def hough_votes(pts, nrm, cx, cy, rmax, rho_bin, n_th, n_rho, pad, thr, max_cand):
+    """The vote of :func:`arstream.detect.segments.group_lines`: each point votes
+    once, in the (theta, rho) cell of its own normal (theta in [0, pi), rho
+    measured from (``cx``, ``cy``)); the rows within ``pad`` of either end are
+    voted again wrapped (theta near pi is theta near 0 with rho negated). The
+    votes are summed over 3 x 3 cells; peaks are cells of at least ``thr`` that
+    are maxima of their 3 x 3 neighbourhood (plateaus included).
+
+    Parameters
+    ----------
+    pts, nrm : (N, 2) float64 points and unit normals
+    cx, cy, rmax, rho_bin : float
+    n_th, n_rho, pad : int
+    thr : float
+    max_cand : int
+
+    Returns
+    -------
+    cand : (K,) int64 the strongest peaks (flat indices into (n_th, n_rho)),
+        strongest first (ties: lower index first), at most ``max_cand``
+    tb : (N,) int64 each point's theta bin
+    """
+    n = pts.shape[0]
+    rows = n_th + 2 * pad
+    acc = np.zeros((rows, n_rho), np.float64)
+    tb = np.empty(n, np.int64)
+    kth = n_th / np.pi
+    for i in range(n):
+        th = np.arctan2(nrm[i, 1], nrm[i, 0])
+        sgn = 1.0
+        if th < 0:
+            th += np.pi
+            sgn = -1.0
+        rho = ((pts[i, 0] - cx) * nrm[i, 0] + (pts[i, 1] - cy) * nrm[i, 1]) * sgn
+        t = min(int(th * kth), n_th - 1)
+        tb[i] = t
+        r = min(max(int((rho + rmax) * (1.0 / rho_bin)), 0), n_rho - 1)
+        acc[t + pad, r] += 1.0
+        if t < pad or t >= n_th - pad:
+            te = t + n_th if t < pad else t - n_th
+            re = min(max(int((-rho + rmax) * (1.0 / rho_bin)), 0), n_rho - 1)
+            acc[te + pad, re] += 1.0
+    # 3 x 3 sums (zero beyond the accumulator), over the core rows only
+    core = np.zeros((n_th, n_rho))
+    for t in range(n_th):
+        for r in range(n_rho):
+            v = 0.0
+            for dt in range(-1, 2):
+                rr = t + pad + dt
+                if rr < 0 or rr >= rows:
+                    continue
+                for dr in range(-1, 2):
+                    c = r + dr
+                    if 0 <= c < n_rho:
+                        v += acc[rr, c]
+            core[t, r] = v
+    cnt = 0
+    cand = np.empty(n_th * n_rho, np.int64)
+    vals = np.empty(n_th * n_rho)
+    for t in range(n_th):
+        for r in range(n_rho):
+            v = core[t, r]
+            if v < thr:
+                continue
+            peak = True
+            for dt in range(-1, 2):
+                tt = t + dt
+                if tt < 0 or tt >= n_th:
+                    continue
+                for dr in range(-1, 2):
+                    c = r + dr
+                    if 0 <= c < n_rho and core[tt, c] > v:
+                        peak = False
+            if peak:
+                cand[cnt] = t * n_rho + r
+                vals[cnt] = -v
+                cnt += 1
+    o = np.argsort(vals[:cnt], kind="mergesort")
+    k = min(cnt, max_cand)
+    out = np.empty(k, np.int64)
+    for i in range(k):
+        out[i] = cand[o[i]]
+    return out, tb
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -1061,6 +1147,7 @@ def warm_up() -> None:
     refine_conic(np.ones(6), p, p, z, 1.0, 1.5, 2.25)
     perimeter_bins(p, 0.0, 0.0, 0.0, 2.0, 1.0, 64, 0.3, 1.0)
     hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
+    hough_votes(p, p, 0.0, 0.0, 1.0, 2.0, 4, 3, 1, 1.0, 4)
     grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)

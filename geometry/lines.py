@@ -199,15 +199,22 @@ def fit_line(pts, weights=None) -> LineFit:
         raise ValueError(f"pts must have shape (N, 2), got {p.shape}")
     if len(p) < 2:
         raise ValueError(f"a line fit needs at least 2 points, got {len(p)}")
-    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=np.float64)
-    if w.shape != (len(p),) or np.any(w < 0) or not np.all(np.isfinite(w)):
-        raise ValueError("weights must be (N,) finite and non-negative")
-    if np.count_nonzero(w) < 2:
-        raise ValueError("a line fit needs at least 2 points with positive weight")
-    W = w.sum()
-    c = (w[:, None] * p).sum(axis=0) / W
-    d = p - c
-    S = (w[:, None] * d).T @ d / W
+    if weights is None:  # (the common case: no weight arrays)
+        n_eff = W = float(len(p))
+        c = p.sum(axis=0) / W
+        d = p - c
+        S = d.T @ d / W
+    else:
+        w = np.asarray(weights, dtype=np.float64)
+        if w.shape != (len(p),) or np.any(w < 0) or not np.all(np.isfinite(w)):
+            raise ValueError("weights must be (N,) finite and non-negative")
+        if np.count_nonzero(w) < 2:
+            raise ValueError("a line fit needs at least 2 points with positive weight")
+        W = w.sum()
+        c = (w[:, None] * p).sum(axis=0) / W
+        d = p - c
+        S = (w[:, None] * d).T @ d / W
+        n_eff = W * W / (w * w).sum()
     evals, evecs = np.linalg.eigh(S)
     if evals[1] < _EPS:
         raise ValueError("points coincide: no line through them")
@@ -215,7 +222,6 @@ def fit_line(pts, weights=None) -> LineFit:
     direction = evecs[:, 1]
     line = np.array([normal[0], normal[1], -normal @ c])
     rms = float(np.sqrt(max(evals[0], 0.0)))
-    n_eff = W * W / (w * w).sum()
     spread = np.sqrt(evals[1])
     # noise sigma estimated as rms * sqrt(n / (n - 2)); offset std = sigma / sqrt(n)
     sigma_n = rms / np.sqrt(n_eff - 2) if n_eff > 2 else np.inf

@@ -2,7 +2,8 @@
 
 Every ridge centre carries its own line normal (from the Hessian), so it
 votes once, in its own (theta, rho) cell, instead of along a whole
-sinusoid: the accumulator is a 2-D histogram built with one ``bincount``.
+sinusoid: the accumulator is a 2-D histogram (one compiled pass,
+:func:`arstream.kernels.hough_votes`, which also finds its peaks).
 Local maxima are taken strongest first; each gathers the still unassigned
 points of the nearby orientations that lie close to it and point the same
 way, is refitted by total least squares, cut at gaps longer than
@@ -21,17 +22,15 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
-from arstream.kernels import hough_lines
+from arstream.kernels import hough_lines, hough_votes
 
 __all__ = ["LineGroup", "group_lines"]
 
 _TH_BINS = 120  # 1.5 degree bins over [0, pi)
 _PAD = 3  # wrapped rows on both ends
 _HALF = 3  # theta bins either side gathered per peak
-_K3 = np.ones((3, 3), np.uint8)
 
 
 class LineGroup:
@@ -84,37 +83,18 @@ def group_lines(
     rmax = 0.5 * math.hypot(w, h) + 2
     rho_bin = 2.0
     n_rho = int(math.ceil(2 * rmax / rho_bin)) + 1
-    th = np.arctan2(nrm[:, 1], nrm[:, 0])
-    neg = th < 0
-    th[neg] += np.pi
-    sgn = np.where(neg, -1.0, 1.0)
-    rho = ((pts[:, 0] - cx) * nrm[:, 0] + (pts[:, 1] - cy) * nrm[:, 1]) * sgn
-    tb = np.minimum((th * (_TH_BINS / np.pi)).astype(np.intp), _TH_BINS - 1)
-    rb = np.clip(((rho + rmax) * (1.0 / rho_bin)).astype(np.intp), 0, n_rho - 1)
-    rows = _TH_BINS + 2 * _PAD
-    acc = np.bincount((tb + _PAD) * n_rho + rb, minlength=rows * n_rho)
-    # wrapped copies: theta near pi is theta near 0 with rho negated
-    edge = (tb < _PAD) | (tb >= _TH_BINS - _PAD)
-    if edge.any():
-        te = tb[edge]
-        te = np.where(te < _PAD, te + _TH_BINS, te - _TH_BINS)
-        re = np.clip(((-rho[edge] + rmax) * (1.0 / rho_bin)).astype(np.intp), 0, n_rho - 1)
-        acc += np.bincount((te + _PAD) * n_rho + re, minlength=rows * n_rho)
-    A = acc.reshape(rows, n_rho).astype(np.float32)
-    T = cv2.boxFilter(A, -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    core = T[_PAD : _PAD + _TH_BINS]
+    pts = np.ascontiguousarray(pts, np.float64)
+    nrm = np.ascontiguousarray(nrm, np.float64)
     thr = max(min_points, 0.5 * min_length)
-    peak = (core >= thr) & (core >= cv2.dilate(core, _K3))
-    cand = np.flatnonzero(peak.ravel())
+    cand, tb = hough_votes(pts, nrm, cx, cy, rmax, rho_bin, _TH_BINS, n_rho, _PAD, float(thr), 4 * max_lines)
     if len(cand) == 0:
         return [], np.zeros(n, bool)
-    cand = cand[np.argsort(-core.ravel()[cand], kind="stable")[: 4 * max_lines]]
     order_t = np.argsort(tb, kind="stable")
     starts = np.searchsorted(tb[order_t], np.arange(_TH_BINS + 1))
     has_labels = labels is not None and len(labels) > 0
     lab = labels.astype(np.int64) if has_labels else np.zeros(n, np.int64)
     members, offsets, geo, used = hough_lines(
-        np.ascontiguousarray(pts, np.float64), np.ascontiguousarray(nrm, np.float64), lab, has_labels, int(lab.max()) + 1,
+        pts, nrm, lab, has_labels, int(lab.max()) + 1,
         order_t.astype(np.int64), starts.astype(np.int64), cand.astype(np.int64), _TH_BINS, n_rho, rho_bin, rmax, cx, cy, _HALF,
         int(min_points), float(min_length), float(max_gap), float(tol), int(max_lines), float(max_sagitta), float(max_rms),
     )  # fmt: skip
