@@ -1069,11 +1069,12 @@ def hough_votes(pts, nrm, cx, cy, rmax, rho_bin, n_th, n_rho, pad, thr, max_cand
     -------
     cand : (K,) int64 the strongest peaks (flat indices into (n_th, n_rho)),
         strongest first (ties: lower index first), at most ``max_cand``
-    tb : (N,) int64 each point's theta bin
+    order_t : (N,) int64 the points sorted by theta bin (stable)
+    starts : (n_th + 1,) int64 bin t's points are order_t[starts[t]:starts[t + 1]]
     """
     n = pts.shape[0]
     rows = n_th + 2 * pad
-    acc = np.zeros((rows, n_rho), np.float64)
+    acc = np.zeros((rows, n_rho), np.int32)
     tb = np.empty(n, np.int64)
     kth = n_th / np.pi
     for i in range(n):
@@ -1086,25 +1087,30 @@ def hough_votes(pts, nrm, cx, cy, rmax, rho_bin, n_th, n_rho, pad, thr, max_cand
         t = min(int(th * kth), n_th - 1)
         tb[i] = t
         r = min(max(int((rho + rmax) * (1.0 / rho_bin)), 0), n_rho - 1)
-        acc[t + pad, r] += 1.0
+        acc[t + pad, r] += 1
         if t < pad or t >= n_th - pad:
             te = t + n_th if t < pad else t - n_th
             re = min(max(int((-rho + rmax) * (1.0 / rho_bin)), 0), n_rho - 1)
-            acc[te + pad, re] += 1.0
-    # 3 x 3 sums (zero beyond the accumulator), over the core rows only
-    core = np.zeros((n_th, n_rho))
+            acc[te + pad, re] += 1
+    # 3 x 3 sums (zero beyond the accumulator) over the core rows: across rho,
+    # then across theta
+    hs = np.zeros((n_th + 2, n_rho), np.int32)
+    for t in range(n_th + 2):
+        rr = t + pad - 1
+        if rr < 0 or rr >= rows:
+            continue
+        row = acc[rr]
+        for r in range(n_rho):
+            v = row[r]
+            if r > 0:
+                v += row[r - 1]
+            if r + 1 < n_rho:
+                v += row[r + 1]
+            hs[t, r] = v
+    core = np.empty((n_th, n_rho), np.int32)
     for t in range(n_th):
         for r in range(n_rho):
-            v = 0.0
-            for dt in range(-1, 2):
-                rr = t + pad + dt
-                if rr < 0 or rr >= rows:
-                    continue
-                for dr in range(-1, 2):
-                    c = r + dr
-                    if 0 <= c < n_rho:
-                        v += acc[rr, c]
-            core[t, r] = v
+            core[t, r] = hs[t, r] + hs[t + 1, r] + hs[t + 2, r]
     cnt = 0
     cand = np.empty(n_th * n_rho, np.int64)
     vals = np.empty(n_th * n_rho)
@@ -1131,7 +1137,18 @@ def hough_votes(pts, nrm, cx, cy, rmax, rho_bin, n_th, n_rho, pad, thr, max_cand
     out = np.empty(k, np.int64)
     for i in range(k):
         out[i] = cand[o[i]]
-    return out, tb
+    # the points by theta bin (a stable counting sort)
+    starts = np.zeros(n_th + 1, np.int64)
+    for i in range(n):
+        starts[tb[i] + 1] += 1
+    for t in range(n_th):
+        starts[t + 1] += starts[t]
+    fill = starts[:-1].copy()
+    order_t = np.empty(n, np.int64)
+    for i in range(n):
+        order_t[fill[tb[i]]] = i
+        fill[tb[i]] += 1
+    return out, order_t, starts
 
 
 def warm_up() -> None:

@@ -86,16 +86,14 @@ def group_lines(
     pts = np.ascontiguousarray(pts, np.float64)
     nrm = np.ascontiguousarray(nrm, np.float64)
     thr = max(min_points, 0.5 * min_length)
-    cand, tb = hough_votes(pts, nrm, cx, cy, rmax, rho_bin, _TH_BINS, n_rho, _PAD, float(thr), 4 * max_lines)
+    cand, order_t, starts = hough_votes(pts, nrm, cx, cy, rmax, rho_bin, _TH_BINS, n_rho, _PAD, float(thr), 4 * max_lines)
     if len(cand) == 0:
         return [], np.zeros(n, bool)
-    order_t = np.argsort(tb, kind="stable")
-    starts = np.searchsorted(tb[order_t], np.arange(_TH_BINS + 1))
     has_labels = labels is not None and len(labels) > 0
     lab = labels.astype(np.int64) if has_labels else np.zeros(n, np.int64)
     members, offsets, geo, used = hough_lines(
         pts, nrm, lab, has_labels, int(lab.max()) + 1,
-        order_t.astype(np.int64), starts.astype(np.int64), cand.astype(np.int64), _TH_BINS, n_rho, rho_bin, rmax, cx, cy, _HALF,
+        order_t, starts, cand, _TH_BINS, n_rho, rho_bin, rmax, cx, cy, _HALF,
         int(min_points), float(min_length), float(max_gap), float(tol), int(max_lines), float(max_sagitta), float(max_rms),
     )  # fmt: skip
     groups = [
