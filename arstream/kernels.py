@@ -37,15 +37,16 @@ def _grow2(a, n):
 
 
 @nb.njit(**_JIT)
-def ridge_scan(th, region, B, thr, min_contrast, d, curvature_ratio):
+def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
     """Sub-pixel ridge centres at the candidate pixels of a top-hat image.
 
-    A candidate is a pixel of ``th`` above ``thr`` inside ``region`` that is a
-    maximum of ``th`` across x or across y (plateaus included), at least 2 px
-    from the border. At each, the Hessian of ``B`` (3x3 differences) gives the
-    line's normal ``n`` (eigenvector of the most negative eigenvalue ``l1``);
-    a centre needs ``l1 < 0``, an elongated profile (``l2 > l1 / 2``), the
-    ridge maximum within its own pixel along ``n`` after the grass's slope
+    A candidate is a pixel where ``cand`` is non-zero (the caller's mask of
+    ``th`` above the threshold inside the region where lines may be) that is
+    a maximum of ``th`` across x or across y (plateaus included), at least
+    2 px from the border. At each, the Hessian of ``B`` (3x3 differences)
+    gives the line's normal ``n`` (eigenvector of the most negative eigenvalue
+    ``l1``); a centre needs ``l1 < 0``, an elongated profile (``l2 > l1 / 2``),
+    the ridge maximum within its own pixel along ``n`` after the grass's slope
     across the line is taken out (a linear background through the samples
     ``d`` px either side, when they differ by at most half the contrast), a
     contrast over the brighter side of at least ``min_contrast`` and a
@@ -54,9 +55,11 @@ def ridge_scan(th, region, B, thr, min_contrast, d, curvature_ratio):
     Parameters
     ----------
     th : (h, w) uint8 top-hat of the luma
-    region : (h, w) uint8, non-zero where lines may be
+    cand : (h, wp) uint8 candidate mask, its rows padded with zeros to a
+        multiple of 8 bytes (``wp >= w``)
+    words : ``cand`` viewed as (h, wp / 8) uint64: the scan skips 8 pixels
+        without a candidate at once
     B : (h, w) float32 Gaussian-smoothed luma
-    thr : float, candidate threshold on ``th`` (strictly above)
     min_contrast, d, curvature_ratio : float
 
     Returns
@@ -73,78 +76,82 @@ def ridge_scan(th, region, B, thr, min_contrast, d, curvature_ratio):
     aux = np.empty((cap, 4), np.float32)
     n = 0
     ncand = 0
-    ithr = min(int(np.floor(thr)) + 1, 256)  # th > thr for integer th
     half = np.float32(0.5)
     two = np.float32(2.0)
     quarter = np.float32(0.25)
     d2 = np.float32(2.0 * d)
+    nw = words.shape[1]
     for y in range(2, h - 2):
         trow = th[y]
-        rrow = region[y]
-        for x in range(2, w - 2):
-            t = trow[x]
-            if t < ithr or rrow[x] == 0:
+        crow = cand[y]
+        wrow = words[y]
+        for kw in range(nw):
+            if wrow[kw] == 0:
                 continue
-            if not ((t >= trow[x - 1] and t >= trow[x + 1]) or (t >= th[y - 1, x] and t >= th[y + 1, x])):
-                continue
-            ncand += 1
-            c = B[y, x]
-            xp = B[y, x + 1]
-            xm = B[y, x - 1]
-            yp = B[y + 1, x]
-            ym = B[y - 1, x]
-            gx = half * (xp - xm)
-            gy = half * (yp - ym)
-            gxx = xp + xm - two * c
-            gyy = yp + ym - two * c
-            gxy = quarter * (B[y + 1, x + 1] - B[y + 1, x - 1] - B[y - 1, x + 1] + B[y - 1, x - 1])
-            ht = half * (gxx + gyy)
-            root = np.sqrt(quarter * (gxx - gyy) * (gxx - gyy) + gxy * gxy)
-            l1 = ht - root
-            l2 = ht + root
-            if not (l1 < 0 and l2 > half * l1):
-                continue
-            # eigenvector of l1: (gxy, l1 - gxx) or (l1 - gyy, gxy), the better conditioned
-            nx = gxy
-            ny = l1 - gxx
-            bx = l1 - gyy
-            if bx * bx + gxy * gxy > nx * nx + ny * ny:
-                nx = bx
-                ny = gxy
-            nn = np.sqrt(nx * nx + ny * ny)
-            if not nn > 1e-12:
-                continue
-            nx = nx / nn
-            ny = ny / nn
-            # the grass on both sides, beyond the half width
-            sx1 = min(max(int(np.rint(x + d * nx)), 0), w - 1)
-            sy1 = min(max(int(np.rint(y + d * ny)), 0), h - 1)
-            sx2 = min(max(int(np.rint(x - d * nx)), 0), w - 1)
-            sy2 = min(max(int(np.rint(y - d * ny)), 0), h - 1)
-            b1 = B[sy1, sx1]
-            b2 = B[sy2, sx2]
-            contrast = c - max(b1, b2)
-            slope = (b1 - b2) / d2 if abs(b1 - b2) <= half * contrast else np.float32(0.0)
-            tt = -(gx * nx + gy * ny - slope) / l1
-            ox = tt * nx
-            oy = tt * ny
-            if not (abs(ox) <= 0.5 and abs(oy) <= 0.5):
-                continue
-            if not (contrast >= min_contrast and -l1 >= curvature_ratio * contrast):
-                continue
-            if n == pts.shape[0]:
-                pts = _grow2(pts, n)
-                nrm = _grow2(nrm, n)
-                aux = _grow2(aux, n)
-            pts[n, 0] = x + ox
-            pts[n, 1] = y + oy
-            nrm[n, 0] = nx
-            nrm[n, 1] = ny
-            aux[n, 0] = c
-            aux[n, 1] = b1
-            aux[n, 2] = b2
-            aux[n, 3] = l1
-            n += 1
+            for x in range(max(8 * kw, 2), min(8 * kw + 8, w - 2)):
+                if crow[x] == 0:
+                    continue
+                t = trow[x]
+                if not ((t >= trow[x - 1] and t >= trow[x + 1]) or (t >= th[y - 1, x] and t >= th[y + 1, x])):
+                    continue
+                ncand += 1
+                c = B[y, x]
+                xp = B[y, x + 1]
+                xm = B[y, x - 1]
+                yp = B[y + 1, x]
+                ym = B[y - 1, x]
+                gx = half * (xp - xm)
+                gy = half * (yp - ym)
+                gxx = xp + xm - two * c
+                gyy = yp + ym - two * c
+                gxy = quarter * (B[y + 1, x + 1] - B[y + 1, x - 1] - B[y - 1, x + 1] + B[y - 1, x - 1])
+                ht = half * (gxx + gyy)
+                root = np.sqrt(quarter * (gxx - gyy) * (gxx - gyy) + gxy * gxy)
+                l1 = ht - root
+                l2 = ht + root
+                if not (l1 < 0 and l2 > half * l1):
+                    continue
+                # eigenvector of l1: (gxy, l1 - gxx) or (l1 - gyy, gxy), the better conditioned
+                nx = gxy
+                ny = l1 - gxx
+                bx = l1 - gyy
+                if bx * bx + gxy * gxy > nx * nx + ny * ny:
+                    nx = bx
+                    ny = gxy
+                nn = np.sqrt(nx * nx + ny * ny)
+                if not nn > 1e-12:
+                    continue
+                nx = nx / nn
+                ny = ny / nn
+                # the grass on both sides, beyond the half width
+                sx1 = min(max(int(np.rint(x + d * nx)), 0), w - 1)
+                sy1 = min(max(int(np.rint(y + d * ny)), 0), h - 1)
+                sx2 = min(max(int(np.rint(x - d * nx)), 0), w - 1)
+                sy2 = min(max(int(np.rint(y - d * ny)), 0), h - 1)
+                b1 = B[sy1, sx1]
+                b2 = B[sy2, sx2]
+                contrast = c - max(b1, b2)
+                slope = (b1 - b2) / d2 if abs(b1 - b2) <= half * contrast else np.float32(0.0)
+                tt = -(gx * nx + gy * ny - slope) / l1
+                ox = tt * nx
+                oy = tt * ny
+                if not (abs(ox) <= 0.5 and abs(oy) <= 0.5):
+                    continue
+                if not (contrast >= min_contrast and -l1 >= curvature_ratio * contrast):
+                    continue
+                if n == pts.shape[0]:
+                    pts = _grow2(pts, n)
+                    nrm = _grow2(nrm, n)
+                    aux = _grow2(aux, n)
+                pts[n, 0] = x + ox
+                pts[n, 1] = y + oy
+                nrm[n, 0] = nx
+                nrm[n, 1] = ny
+                aux[n, 0] = c
+                aux[n, 1] = b1
+                aux[n, 2] = b2
+                aux[n, 3] = l1
+                n += 1
     return pts[:n].copy(), nrm[:n].copy(), aux[:n].copy(), ncand
 
 
@@ -1157,7 +1164,7 @@ def warm_up() -> None:
     B = np.zeros((8, 8), np.float32)
     p = np.zeros((1, 2))
     z = np.zeros(1, np.int64)
-    ridge_scan(th, th, B, 5.0, 5.0, 5.5, 0.1)
+    ridge_scan(th, th, th.view(np.uint64), B, 5.0, 5.5, 0.1)
     band_scan(B, p, np.ones((1, 2)), 6)
     conic_band(np.ones(6), p, p, z, 1.0, 0.0, False)
     direct_fit(np.eye(6))

@@ -16,8 +16,9 @@ Three steps, at the working resolution:
    its own pixel (``|t n| <= 0.5``). A centre must also be brighter than the
    grass on *both* sides at a distance beyond the line's half width (a step
    edge is bright on one side only) and be elongated (``|l2| < |l1|``).
-   Steps 1 and 2 past the top-hat and the smoothing are one compiled loop
-   over the image (:func:`arstream.kernels.ridge_scan`).
+   Past the top-hat, the smoothing and the candidate mask (OpenCV), steps 1
+   and 2 are one compiled loop over the image
+   (:func:`arstream.kernels.ridge_scan`).
 3. Bands: a line smeared by a fast pan is a band as wide as the scale. On a
    stripe's edge its plateau slopes down with the step, so its maximum sits at
    the bright end (1-2 px off); on flat grass it wanders over the plateau.
@@ -84,6 +85,7 @@ def ridge_points(
         bufs["tophat"] = np.empty((h, w), np.uint8)
         bufs["f32"] = np.empty((h, w), np.float32)
         bufs["blur"] = np.empty((h, w), np.float32)
+        bufs["cand"] = np.zeros((h, -(-w // 8) * 8), np.uint8)  # rows padded to 8-byte words
     key = ("se", kernel)
     se = bufs.get(key)
     if se is None:
@@ -94,9 +96,15 @@ def ridge_points(
     k = int(2 * np.ceil(3 * sigma) + 1)
     # (always made: the detector centres the squashed pass's bands on the fine one's)
     B = cv2.GaussianBlur(f, (k, k), sigma, dst=bufs["blur"], borderType=cv2.BORDER_REPLICATE)
-    # candidates (top-hat above 0.9 of the contrast, in the region, a maximum across x
-    # or y) and their centres: one compiled loop (kernels.ridge_scan)
-    pts, nrm, aux, n_cand = ridge_scan(th, region, B, max(min_contrast * 0.9, 2.0), float(min_contrast), 0.5 * kernel, float(curvature_ratio))
+    # candidates: top-hat above 0.9 of the contrast, in the region (OpenCV), then those
+    # that are a maximum across x or y, and their centres: one compiled loop
+    # (kernels.ridge_scan, which skips 8 pixels without a candidate at a time)
+    thr = max(min_contrast * 0.9, 2.0)
+    cand = bufs["cand"]
+    cv = cand[:, :w]
+    cv2.threshold(th, min(int(np.floor(thr)), 255), 255, cv2.THRESH_BINARY, dst=cv)  # th > thr for integer th
+    cv2.bitwise_and(cv, region, dst=cv)
+    pts, nrm, aux, n_cand = ridge_scan(th, cand, cand.view(np.uint64), B, float(min_contrast), 0.5 * kernel, float(curvature_ratio))
     c, b1, b2, l1 = aux.T
     contrast = c - np.maximum(b1, b2)
     # a band wider than the scale (a line smeared by a pan): on a step of the grass (a
