@@ -595,3 +595,20 @@ def test_compiled_direct_fit_matches_the_geometry_core():
     for S in (np.zeros((6, 6)), D.T @ D, np.full((6, 6), np.nan)):
         coef, ok = kernels.direct_fit(S)
         assert not ok and np.isnan(coef).all()
+
+
+def test_component_stats_are_opencvs():
+    from arstream import kernels
+
+    rng = np.random.default_rng(3)
+    total = 0
+    for t in range(40):
+        img = (cv2.GaussianBlur(rng.random((90, 160)).astype(np.float32), (0, 0), rng.uniform(0.5, 5)) > rng.uniform(0.3, 0.7)).astype(np.uint8) * 255
+        for conn in (4, 8):
+            n, lab, st, _ = cv2.connectedComponentsWithStats(img, connectivity=conn)
+            mine = kernels.component_stats(lab, n)
+            total += n - 1
+            np.testing.assert_array_equal(mine[1:], st[1:])
+            if st[0, cv2.CC_STAT_AREA]:
+                np.testing.assert_array_equal(mine[0], st[0])
+    assert total > 500  # many components, of all shapes

@@ -17,6 +17,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from arstream.kernels import component_stats
+
 __all__ = ["GrassModel", "GrassResult", "grass_masks"]
 
 H_BINS, S_BINS = 45, 32
@@ -110,13 +112,21 @@ _K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
 _K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
 
 
+def _components(mask: np.ndarray, connectivity: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """``cv2.connectedComponentsWithStats`` without the centroids: (n, labels,
+    stats (n, 5) in OpenCV's layout), the statistics in one compiled pass
+    (:func:`arstream.kernels.component_stats`)."""
+    n, lab = cv2.connectedComponents(mask, connectivity=connectivity)
+    return n, lab, component_stats(lab, n)
+
+
 def _graphics(raw: np.ndarray, bufs: dict) -> np.ndarray | None:
     """Screen graphics (a score box): bands of at least two full rows of a
     non-grass component, wide but not frame-wide, inside a box that is mostly
     solid (a player touching the box does not hide it). None when there are none."""
     h, w = raw.shape
     inv = cv2.bitwise_not(raw, dst=bufs["prior"])
-    ng, gl, gst, _ = cv2.connectedComponentsWithStats(inv, connectivity=4)
+    ng, gl, gst = _components(inv, 4)
     out = None
     for k in np.flatnonzero((gst[1:, cv2.CC_STAT_WIDTH] >= 0.1 * w) & (gst[1:, cv2.CC_STAT_WIDTH] <= 0.6 * w) & (gst[1:, cv2.CC_STAT_AREA] >= 0.002 * h * w)) + 1:
         x, y, bw, bh, _ = gst[k]
@@ -183,7 +193,7 @@ def grass_masks(tiny_bgr: np.ndarray, model: GrassModel, *, min_fraction: float 
     if graphics is not None:
         cv2.subtract(closed, graphics, dst=closed)
     # the pitch: the large connected grass components
-    n, lab, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
+    n, lab, stats = _components(closed, 8)
     if n <= 1:
         raw[:] = 0
         closed[:] = 0
@@ -213,7 +223,7 @@ def grass_masks(tiny_bgr: np.ndarray, model: GrassModel, *, min_fraction: float 
         hull = cv2.convexHull(pts)
         cv2.fillConvexPoly(filled, hull, 255)
         holes = cv2.subtract(filled, closed, dst=bufs["tmp"])
-        nh, hl, hst, _ = cv2.connectedComponentsWithStats(holes, connectivity=4)
+        nh, hl, hst = _components(holes, 4)
         if nh > 1:
             ww, hh, aa = hst[1:, cv2.CC_STAT_WIDTH], hst[1:, cv2.CC_STAT_HEIGHT], hst[1:, cv2.CC_STAT_AREA]
             rect = aa / np.maximum(ww * hh, 1)
