@@ -11,7 +11,7 @@ cost more per frame than all its queries.
 
 Compiled on first use and cached next to this file (numba's ``cache=True``;
 the first run after an install takes some seconds more). Loading the cached
-code still costs about 0.3 s per process, most of it numba's one-off set-up of
+code still costs about 0.5 s per process, most of it numba's one-off set-up of
 its code generator on the first call: :func:`warm_up_async` (called by every
 ``Detector``) does that on a background thread, overlapping the caller's own
 start-up (the GIL is released while LLVM loads the code).

@@ -23,8 +23,9 @@ and the pipeline's mean milliseconds per frame per stage. Memory flatness:
 peak memory of ``process`` on the clip and on the clip repeated ``--long``
 times (default 2).
 
-``--write`` replaces the section "## Pipeline (arstream process)" of
-bench/README.md with the figures (other sections are left alone).
+``--write`` replaces the figures (tables and targets) of the section
+"## Pipeline (arstream process)" of bench/README.md; the hand-written text
+after the section's ``KEEP`` marker and the other sections are left alone.
 """
 
 from __future__ import annotations
@@ -45,35 +46,9 @@ sys.path.insert(0, ROOT)
 
 SECTION = "## Pipeline (arstream process)"
 
-NOTES = """\
-Where the time goes. The pipeline keeps frames in I420 from decoder to encoder
-(no full-frame colour conversion), composites only inside the overlay's
-rectangles, and detects and solves on frames scaled to 640 px wide (made from
-the I420 planes; cameras mapped back exactly, `--analysis-width`). With the
-cameras known, the whole loop (decode, render, composite, encode) costs
-1.1-1.2x a plain decode+encode: that part is within the 1.5x budget. With
-detection and solving, per 720p frame (CPU of each stage's own thread,
-`stage_cpu_ms`): detection about 6 ms (grass and line pixels only while the
-camera is tracked: lines and the ellipse search run lazily, when the tracker
-re-initialises), tracking about 5 ms (one short refinement round from the
-filter's prediction), rendering and compositing about 3 ms; plus the
-one-off initialisation at the start of a shot (0.05-0.2 s). Decode + x264
-`veryfast` alone take about 20 ms of CPU per 720p frame (43 at 1080p): 60
-fps on two cores leaves about 13 ms per frame for everything else at 720p,
-and the pipeline spends about 19. Detection runs on a worker thread one
-frame ahead of tracking and rendering, so both cores are busy; the run is
-CPU-bound (the fps bound from CPU time is given per size above). Memory stays
-flat in clip length (at most lag + 8 frames are held; the smoother keeps
-camera parameters only).
-
-CPU per thread (720p, the committed sample, read from /proc/self/task at the
-end of a run, whole command): x264's own threads about 19.5 ms per frame,
-the same as in the plain decode+encode; FFmpeg's decoder threads 2.5; the
-main thread (tracking, rendering, and about 5 ms per frame of amortised
-start-up: imports, scipy.stats pulled in by filterpy alone costs 0.35 s) 14;
-the detection thread 7; the encode thread (hand-over to x264, muxing) 1.6;
-llvmpipe 1.3. So 60 fps (33 ms of CPU per frame on two cores) would need the
-detection, tracking and rendering, about 20 ms now, to fit in about 11."""
+# bench/README.md: what follows this line in the section is hand-written
+# (comparisons, analysis) and --write keeps it
+KEEP = "<!-- hand-written below: bench/pipeline_speed.py --write keeps it -->"
 
 
 # --------------------------------------------------------------------------- child: plain decode+encode
@@ -277,14 +252,18 @@ def verdicts(results: list[dict]) -> str:
 
 
 def write_section(text: str) -> None:
+    """Replace the generated part of the section (tables, targets) with ``text``;
+    the hand-written part after the :data:`KEEP` line stays."""
     path = os.path.join(ROOT, "bench", "README.md")
     old = open(path, encoding="utf-8").read() if os.path.exists(path) else "# Benchmarks\n"
-    block = f"{SECTION}\n\n{text.strip()}\n"
+    block = f"{SECTION}\n\n{text.strip()}\n\n{KEEP}\n"
     if SECTION in old:
         start = old.index(SECTION)
         m = re.search(r"^## ", old[start + len(SECTION) :], flags=re.M)
         end = start + len(SECTION) + m.start() if m else len(old)
-        new = old[:start] + block + ("\n" + old[end:] if m else "")
+        section = old[start:end]
+        kept = section[section.index(KEEP) + len(KEEP) :].strip("\n") if KEEP in section else ""
+        new = old[:start] + block + (f"\n{kept}\n" if kept else "") + ("\n" + old[end:] if m else "")
     else:
         new = old.rstrip("\n") + "\n\n" + block
     with open(path, "w", encoding="utf-8") as f:
@@ -313,7 +292,7 @@ def main() -> None:
         results.append(r)
     load = os.getloadavg()
     info = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, load average {load[0]:.1f} at the end"
-    text = table(results) + "\n\nTargets (issue 7):\n\n" + verdicts(results) + "\n\n" + NOTES
+    text = table(results) + "\n\nTargets (issue 7):\n\n" + verdicts(results)
     missing = sorted({m for r in results for m in r["missing"]})
     note = f"\n\nStages missing from this build (frames passed through): {', '.join(missing)}." if missing else ""
     print(text + note)
