@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "conic_band", "direct_fit", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -1204,6 +1204,44 @@ def component_stats(labels, n):
     return stats
 
 
+@nb.njit(**_JIT)
+def direct_fits(S):
+    """:func:`direct_fit` of a stack of scatter matrices (K, 6, 6): coef (K, 6), ok (K,)."""
+    K = S.shape[0]
+    coef = np.empty((K, 6))
+    ok = np.zeros(K, np.bool_)
+    for k in range(K):
+        c, good = direct_fit(S[k])
+        coef[k] = c
+        ok[k] = good
+    return coef, ok
+
+
+@nb.njit(**_JIT)
+def conic_counts(coefs, q, nrm, idx, band, min_cos):
+    """For each conic of ``coefs`` (K, 6), how many of the points q[idx] lie
+    within Sampson distance ``band`` with their normal agreeing with the
+    conic's gradient (|cos| > ``min_cos``): :func:`conic_band`'s selection,
+    counted, for K conics at once."""
+    K = coefs.shape[0]
+    out = np.zeros(K, np.int64)
+    for k in range(K):
+        A, B, C, D, E, F = coefs[k, 0], coefs[k, 1], coefs[k, 2], coefs[k, 3], coefs[k, 4], coefs[k, 5]
+        c = 0
+        for t in range(idx.shape[0]):
+            j = idx[t]
+            x = q[j, 0]
+            y = q[j, 1]
+            f = A * x * x + B * x * y + C * y * y + D * x + E * y + F
+            gx = 2.0 * A * x + B * y + D
+            gy = B * x + 2.0 * C * y + E
+            gn = np.sqrt(gx * gx + gy * gy) + 1e-12
+            if abs(f) < band * gn and abs(nrm[j, 0] * gx + nrm[j, 1] * gy) > min_cos * gn:
+                c += 1
+        out[k] = c
+    return out
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -1214,6 +1252,8 @@ def warm_up() -> None:
     band_scan(B, p, np.ones((1, 2)), 6)
     conic_band(np.ones(6), p, p, z, 1.0, 0.0, False)
     direct_fit(np.eye(6))
+    direct_fits(np.eye(6)[None].copy())
+    conic_counts(np.ones((1, 6)), p, p, z, 1.0, 0.95)
     refine_conic(np.ones(6), p, p, z, 1.0, 1.5, 2.25)
     perimeter_bins(p, 0.0, 0.0, 0.0, 2.0, 1.0, 64, 0.3, 1.0)
     hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)

@@ -27,11 +27,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from geometry.conics import Ellipse, direct_fit_scatter, ellipse_from_conic
+from geometry.conics import Ellipse, ellipse_from_conic
 
-from arstream.kernels import conic_band, direct_fit, perimeter_bins, refine_conic
+from arstream.kernels import conic_band, conic_counts, direct_fits, perimeter_bins, refine_conic
 
-__all__ = ["EllipseCandidate", "find_ellipses", "coverage", "conic_values"]
+__all__ = ["EllipseCandidate", "find_ellipses", "coverage"]
 
 _K3 = np.ones((3, 3), np.uint8)
 
@@ -50,24 +50,11 @@ def _monomials(q: np.ndarray) -> np.ndarray:
 
 
 def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`geometry.conics.direct_fit_scatter` (coef (K, 6), valid (K,)), with
-    the compiled fit (:func:`arstream.kernels.direct_fit`) for a single scatter
-    matrix (numpy's batched solvers cost tens of microseconds per call)."""
-    if len(S) != 1:
-        return direct_fit_scatter(S)
-    coef, ok = direct_fit(np.ascontiguousarray(S[0], np.float64))
-    return coef[None], np.array([ok])
-
-
-def conic_values(coef: np.ndarray, q: np.ndarray):
-    """Algebraic values f (N, K) and gradients gx, gy (N, K) of conics ``coef`` (K, 6) at points q (N, 2)."""
-    D = _monomials(q)
-    f = D @ coef.T
-    A, B, C, Dd, E = coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3], coef[:, 4]
-    x, y = q[:, :1], q[:, 1:]
-    gx = 2 * A * x + B * y + Dd
-    gy = B * x + 2 * C * y + E
-    return f, gx, gy
+    """The direct ellipse fit of each scatter matrix (K, 6, 6): coef (K, 6),
+    valid (K,) (:func:`arstream.kernels.direct_fit`, the compiled form of
+    :func:`geometry.conics.direct_fit_scatter`: numpy's batched solvers cost
+    tens of microseconds per call, and a frame makes dozens of hypotheses)."""
+    return direct_fits(np.ascontiguousarray(S, np.float64))
 
 
 def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.3, spacing: float = 1.0, visible=None) -> tuple[float, float]:
@@ -330,14 +317,9 @@ def _try(S, fidx, ctx):
     coef = coef[valid]
     # score on the free points: Sampson distance and gradient direction
     step = max(1, len(fidx) // 1000)
-    sidx = fidx[::step]
-    f, gx, gy = conic_values(coef, q[sidx])
-    gn = np.hypot(gx, gy) + 1e-12
-    nn = nrm[sidx]
-    inl = (np.abs(f) < (tol * s) * gn) & (np.abs(nn[:, :1] * gx + nn[:, 1:] * gy) > 0.95 * gn)
+    n_in = conic_counts(coef, q, nrm, np.ascontiguousarray(fidx[::step]), tol * s, 0.95) * float(step)
     # inliers, discounted when they cover little of the hypothesis' perimeter
     # (a gentle curve fits huge flat ellipses with many inliers)
-    n_in = np.count_nonzero(inl, axis=0) * float(step)
     av, bv = a[valid], b[valid]
     perim = np.pi * (3 * (av + bv) - np.sqrt((3 * av + bv) * (av + 3 * bv)))
     score = n_in * np.minimum(1.0, n_in / (0.5 * perim))
