@@ -20,6 +20,7 @@ True
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,8 +77,22 @@ class Ellipse:
     angle: float
 
     def __post_init__(self) -> None:
-        c = np.asarray(self.center, dtype=np.float64)
-        ax = np.asarray(self.axes, dtype=np.float64)
+        c, ax = self.center, self.axes
+        if type(c) is tuple and type(ax) is tuple and len(c) == 2 and len(ax) == 2 and all(type(v) is float for v in (*c, *ax, self.angle)):
+            # (plain floats, as the fits make them: the same checks without numpy's per-call cost)
+            if not all(math.isfinite(v) for v in (*c, *ax, self.angle)):
+                raise ValueError("Ellipse parameters must be finite")
+            if ax[0] <= 0 or ax[1] <= 0:
+                raise ValueError(f"Ellipse axes must be positive, got {ax}")
+            a, b, angle = ax[0], ax[1], self.angle
+            if b > a:
+                a, b = b, a
+                angle += np.pi / 2
+            object.__setattr__(self, "axes", (a, b))
+            object.__setattr__(self, "angle", _wrap_half_pi(angle))
+            return
+        c = np.asarray(c, dtype=np.float64)
+        ax = np.asarray(ax, dtype=np.float64)
         if c.shape != (2,) or ax.shape != (2,):
             raise ValueError(f"Ellipse needs center (2,) and axes (2,), got {c.shape} and {ax.shape}")
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(ax)) and np.isfinite(self.angle)):
@@ -254,18 +269,20 @@ def ellipse_from_conic(C) -> Ellipse:
         an imaginary ellipse or a degenerate conic).
     """
     C = normalize_conic(C)
-    M = C[:2, :2]
-    w, V = np.linalg.eigh(M)  # ascending: w[0] smallest -> major axis
-    if w[1] <= 0 or w[0] <= 1e-13 * w[1]:
+    w, V = np.linalg.eigh(C[:2, :2])  # ascending: w[0] smallest -> major axis
+    w0, w1 = float(w[0]), float(w[1])
+    if w1 <= 0 or w0 <= 1e-13 * w1:
         raise ValueError("conic is not an ellipse (hyperbola, parabola or degenerate)")
-    center = np.linalg.solve(M, -C[:2, 2])
-    f0 = C[2, 2] + C[:2, 2] @ center  # value at the centre
+    cx, cy = np.linalg.solve(C[:2, :2], -C[:2, 2]).tolist()
+    # the rest on plain floats (this runs for every ellipse hypothesis the detector validates)
+    d, e, f = C[2].tolist()
+    f0 = f + (d * cx + e * cy)  # value at the centre
     if f0 >= -1e-15:
         raise ValueError("conic is an imaginary or degenerate (point) ellipse")
-    a = np.sqrt(-f0 / w[0])
-    b = np.sqrt(-f0 / w[1])
-    angle = np.arctan2(V[1, 0], V[0, 0])
-    return Ellipse(center=(center[0], center[1]), axes=(a, b), angle=angle)
+    a = math.sqrt(-f0 / w0)
+    b = math.sqrt(-f0 / w1)
+    angle = math.atan2(float(V[1, 0]), float(V[0, 0]))
+    return Ellipse(center=(cx, cy), axes=(a, b), angle=angle)
 
 
 def direct_fit_scatter(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

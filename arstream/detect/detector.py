@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import cv2
@@ -414,12 +415,13 @@ def _cut_by_line(e, P: np.ndarray, L: np.ndarray) -> bool:
     if not len(L):
         return False
     a, b = e.axes
-    ca, sa = np.cos(e.angle), np.sin(e.angle)
-    R = np.array([[ca, -sa], [sa, ca]])
-    M = R @ np.diag([a * a, b * b]) @ R.T
+    ca, sa = math.cos(e.angle), math.sin(e.angle)
     n = L[:, :2]
     dc = n @ np.asarray(e.center) + L[:, 2]
-    reach = np.sqrt(np.einsum("ki,ij,kj->k", n, M, n))
+    # the support function of the ellipse: its half-width along each line's normal
+    nu = n[:, 0] * ca + n[:, 1] * sa
+    nv = n[:, 1] * ca - n[:, 0] * sa
+    reach = np.sqrt((a * nu) ** 2 + (b * nv) ** 2)
     # lines that cut the ellipse, away from its centre
     cut = (np.abs(dc) < 0.95 * reach) & (np.abs(dc) >= 0.2 * reach)
     if not cut.any():
