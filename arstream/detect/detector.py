@@ -104,7 +104,7 @@ class Detector:
         self._region = np.empty((h, w), np.uint8)
         self._region_tiny = np.empty((th, tw), np.uint8)
         self._linemask_small = np.empty((h, w), np.uint8)
-        self._scratch = np.empty((h, w), np.uint8)
+        self._scratch = np.full((h, w), -1, np.int32)  # the ellipse search's grid (-1 between calls)
         wc, hc = max(w // 2, 8), max(h // 2, 8)
         self._coarse_size = (wc, hc)
         self._gray_c = np.empty((hc, wc), np.uint8)
@@ -296,7 +296,7 @@ class Detector:
         filled = g.filled.copy() if lazy else g.filled
 
         def structure():
-            scratch = np.empty_like(self._scratch) if lazy else self._scratch
+            scratch = np.full_like(self._scratch, -1) if lazy else self._scratch
             return self._structure(pts, nrm, labels, line_points, filled, scratch, timings)
 
         det = Detections(
@@ -320,7 +320,7 @@ class Detector:
     def _structure(self, pts, nrm, labels, line_points, gf, scratch, timings) -> tuple[list, list]:
         """Straight lines and ellipses from the line points (working pixels ``pts``,
         normals ``nrm``, chain ``labels``; frame pixels ``line_points``), given the
-        tiny pitch mask ``gf`` and a working-size uint8 scratch buffer."""
+        tiny pitch mask ``gf`` and a working-size int32 scratch grid (-1)."""
         w, h = self.work_size
         t2 = time.perf_counter()
         groups, used = group_lines(
@@ -381,7 +381,7 @@ class Detector:
             full_size=(W, H),
             visible=visible,
             is_arc=is_arc,
-            mask_buf=scratch,
+            grid_buf=scratch,
             seed=seed,
             group=group[free],
             max_ellipses=self.max_ellipses,

@@ -1,12 +1,13 @@
 """Circle markings: ellipses found among the curved ridge points.
 
 1. Arcs: the ridge centres that no straight line took are linked into arcs
-   (connected components of their raster, gaps of a pixel bridged).
+   (points within 3 px along both axes: gaps of up to 2 px bridged).
 2. Hypotheses (RANSAC over the direct fit, sampling arcs rather than single
    points): the direct least-squares ellipse (Fitzgibbon / Halir-Flusser) of
    every large arc, pair and triple of arcs. Each arc's scatter matrix of
    conic monomials is computed once; the scatter of a union is the sum, so
-   all hypotheses are solved in one batched 3x3 eigenproblem.
+   each hypothesis is one small 3x3 eigenproblem (compiled:
+   :func:`arstream.kernels.direct_fits`).
 3. Scoring: the points within a Sampson distance of each hypothesis *and*
    whose ridge normal agrees with the conic's gradient there.
 4. Refinement: iteratively reweighted direct fits on the inliers (Sampson
@@ -24,16 +25,13 @@ Every ellipse found removes its inliers; the search repeats for the next one.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
+from arstream.kernels import chains, conic_band, conic_counts, direct_fits, perimeter_bins, refine_conic
 from geometry.conics import Ellipse, ellipse_from_conic
-
-from arstream.kernels import conic_band, conic_counts, direct_fits, perimeter_bins, refine_conic
 
 __all__ = ["EllipseCandidate", "find_ellipses", "coverage"]
 
-_K3 = np.ones((3, 3), np.uint8)
 
 
 class EllipseCandidate:
@@ -147,7 +145,7 @@ def find_ellipses(
     full_size: tuple[int, int],
     visible,
     is_arc=None,
-    mask_buf: np.ndarray,
+    grid_buf: np.ndarray,
     labels: np.ndarray | None = None,
     seed: np.ndarray | None = None,
     group: np.ndarray | None = None,
@@ -172,9 +170,9 @@ def find_ellipses(
         seen (in the frame, on the pitch)
     is_arc : callable (Ellipse, support (N, 2)) -> bool, optional: whether the
         support is an arc cut off by a straight line (a penalty arc)
-    mask_buf : (h, w) uint8 scratch buffer
+    grid_buf : (h, w) int32 scratch, -1 on entry and on return
     labels : (N,) int, optional, connected chain of each point (0: none); by default
-        the connected components of the points' raster
+        the points' chains, linked within 3 px (:func:`arstream.kernels.chains`)
     seed : (N,) bool, optional: points that may seed hypotheses (arcs); the
         others (stretches that also passed for short straight lines) only
         support them, or seed as arcs of their own: ``group`` (N,) int, the
@@ -201,22 +199,20 @@ def find_ellipses(
     w, h = work_size
     W, H = full_size
     sw = float(A_wf[0, 0])  # frame pixels per working pixel
-    # 1. arcs: the caller's chain labels, or connected components of the raster
+    # 1. arcs: the caller's chain labels, or the points' own chains
     n_cc = None
     if labels is None:
         sp = pts if seed is None else pts[seed]
-        mask_buf[:] = 0
-        xi = np.clip(np.rint(sp[:, 0]).astype(np.intp), 0, w - 1)
-        yi = np.clip(np.rint(sp[:, 1]).astype(np.intp), 0, h - 1)
-        mask_buf[yi, xi] = 255
-        cv2.dilate(mask_buf, _K3, dst=mask_buf)
-        _, lab = cv2.connectedComponents(mask_buf, connectivity=8)
+        xi = np.clip(np.rint(sp[:, 0]).astype(np.int64), 0, w - 1)
+        yi = np.clip(np.rint(sp[:, 1]).astype(np.int64), 0, h - 1)
+        # linked within 3 px: the 8-connected components of the raster dilated by 3x3
+        lab, _, _ = chains(xi, yi, 3, grid_buf)
         if seed is None:
-            labels = lab[yi, xi]
+            labels = lab
         else:
             labels = np.zeros(n, np.int32)
-            labels[seed] = lab[yi, xi]
-            n_cc = int(lab.max()) + 1
+            labels[seed] = lab
+            n_cc = int(lab.max(initial=0)) + 1
             if group is not None:
                 # each short straight stretch is an arc of its own (not merged
                 # with the curve it touches)
