@@ -233,3 +233,33 @@ ELL = gc.Ellipse(center=(320, 240), axes=(120, 45), angle=0.3)
 def test_degenerate_inputs(call, message):
     with pytest.raises(ValueError, match=message):
         call()
+
+
+@pytest.mark.parametrize(
+    "center, axes, angle, match",
+    [
+        ((0.0, 0.0), (1.0, -2.0), 0.0, "axes must be positive"),
+        ((0.0, 0.0), (0.0, 2.0), 0.0, "axes must be positive"),
+        ((float("nan"), 0.0), (1.0, 2.0), 0.0, "must be finite"),
+        ((0.0, 0.0), (1.0, float("inf")), 0.0, "must be finite"),
+        ((0.0, 0.0), (1.0, 2.0), float("nan"), "must be finite"),
+        ((0.0, 0.0, 1.0), (1.0, 2.0), 0.0, r"needs center \(2,\)"),
+    ],
+)
+def test_ellipse_rejects_bad_parameters(center, axes, angle, match):
+    # plain floats take a fast path, numpy values the general one: the same errors
+    with pytest.raises(ValueError, match=match):
+        gc.Ellipse(center=center, axes=axes, angle=angle)
+    with pytest.raises(ValueError, match=match):
+        gc.Ellipse(center=np.array(center), axes=np.array(axes), angle=np.float64(angle))
+
+
+def test_ellipse_normalises_the_same_from_floats_and_arrays():
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        c, ax, ang = rng.uniform(-50, 50, 2), rng.uniform(0.1, 10, 2), float(rng.uniform(-7, 7))
+        e1 = gc.Ellipse(center=tuple(float(v) for v in c), axes=tuple(float(v) for v in ax), angle=ang)
+        e2 = gc.Ellipse(center=c, axes=ax, angle=np.float64(ang))
+        assert e1 == e2
+        assert e1.axes[0] >= e1.axes[1] and -np.pi / 2 < e1.angle <= np.pi / 2
+        assert all(type(v) is float for v in (*e1.center, *e1.axes, e1.angle))
