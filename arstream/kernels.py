@@ -1265,6 +1265,7 @@ def warm_up() -> None:
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
 
+
 _warm_thread: threading.Thread | None = None
 _warm_lock = threading.Lock()
 
@@ -1277,3 +1278,11 @@ def warm_up_async() -> None:
         if _warm_thread is None:
             _warm_thread = threading.Thread(target=warm_up, name="arstream-kernels", daemon=True)
             _warm_thread.start()
+
+
+if __name__ == "__main__":  # python -m arstream.kernels: compile (or load) them all now
+    import time
+
+    t0 = time.perf_counter()
+    warm_up()
+    print(f"arstream kernels ready ({time.perf_counter() - t0:.1f} s)")
