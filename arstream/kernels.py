@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -1242,6 +1242,69 @@ def conic_counts(coefs, q, nrm, idx, band, min_cos):
     return out
 
 
+@nb.njit(**_JIT)
+def composite_i420(yuv, width, height, bgra, rects, ky, ku, kv):
+    """Premultiplied "over" of a BGRA overlay onto an I420 frame, in place,
+    inside ``rects`` (:func:`arstream.pipeline.composite_i420`): luma per
+    pixel, chroma per 2 x 2 block from the block's mean premultiplied colour
+    and mean alpha (what "over" followed by 4:2:0 subsampling gives), in
+    floating point with one rounding per output sample (half up: the values
+    are never negative once clamped).
+
+    Parameters
+    ----------
+    yuv : (H * W * 3 / 2,) uint8 I420 samples, modified in place
+    width, height : int, even frame size
+    bgra : (H, W, 4) uint8 premultiplied B, G, R, A
+    rects : (R, 4) int64 (x0, y0, x1, y1), even, inside the frame, half-open
+    ky, ku, kv : (4,) float64 rows of the BGRA -> premultiplied Y, U, V map
+        (the offsets in the alpha column)
+    """
+    n = width * height
+    w2 = width // 2
+    u0 = n
+    v0 = n + n // 4
+    inv255 = 1.0 / 255.0
+    ky0, ky1, ky2, ky3 = ky[0], ky[1], ky[2], ky[3]
+    ku0, ku1, ku2, ku3 = ku[0], ku[1], ku[2], ku[3]
+    kv0, kv1, kv2, kv3 = kv[0], kv[1], kv[2], kv[3]
+    for r in range(rects.shape[0]):
+        x0, y0, x1, y1 = rects[r, 0], rects[r, 1], rects[r, 2], rects[r, 3]
+        for y in range(y0, y1, 2):
+            for x in range(x0, x1, 2):
+                su = 0.0
+                sv = 0.0
+                sa = 0.0
+                drawn = False
+                for dy in range(2):
+                    yy = y + dy
+                    for dx in range(2):
+                        xx = x + dx
+                        ia = bgra[yy, xx, 3]
+                        ib = bgra[yy, xx, 0]
+                        ig = bgra[yy, xx, 1]
+                        ir = bgra[yy, xx, 2]
+                        if ia == 0 and ib == 0 and ig == 0 and ir == 0:
+                            continue  # nothing drawn here
+                        b = float(ib)
+                        g = float(ig)
+                        rr = float(ir)
+                        a = float(ia)
+                        k = yy * width + xx
+                        val = yuv[k] * (1.0 - a * inv255) + ky0 * b + ky1 * g + ky2 * rr + ky3 * a
+                        yuv[k] = min(max(int(val + 0.5), 0), 255)
+                        su += ku0 * b + ku1 * g + ku2 * rr + ku3 * a
+                        sv += kv0 * b + kv1 * g + kv2 * rr + kv3 * a
+                        sa += a
+                        drawn = True
+                if not drawn:
+                    continue
+                c = (y // 2) * w2 + x // 2
+                keep = 1.0 - 0.25 * sa * inv255
+                yuv[u0 + c] = min(max(int(yuv[u0 + c] * keep + 0.25 * su + 0.5), 0), 255)
+                yuv[v0 + c] = min(max(int(yuv[v0 + c] * keep + 0.25 * sv + 0.5), 0), 255)
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -1262,6 +1325,8 @@ def warm_up() -> None:
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
     component_stats(np.zeros((2, 2), np.int32), 1)
+    k4 = np.zeros(4)
+    composite_i420(np.zeros(6, np.uint8), 2, 2, np.zeros((2, 2, 4), np.uint8), np.zeros((1, 4), np.int64), k4, k4, k4)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
 

@@ -546,8 +546,7 @@ class CamerasInStage(Stage):
 # BT.601 limited range (FFmpeg's default for untagged video, and OpenCV's I420
 # conversions): Y, U, V from B, G, R, with the offsets scaled by alpha, so that
 # premultiplied colour maps to premultiplied YUV (all of it within 0..255).
-_BGRA_TO_Y = np.array([[24.966, 128.553, 65.481, 16.0]], np.float32) / 255.0
-_BGRA_TO_UV = np.array([[112.0, -74.203, -37.797, 128.0], [-18.214, -93.786, 112.0, 128.0]], np.float32) / 255.0
+_BGRA_TO_YUV = np.array([[24.966, 128.553, 65.481, 16.0], [112.0, -74.203, -37.797, 128.0], [-18.214, -93.786, 112.0, 128.0]]) / 255.0
 
 
 def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, rects) -> None:
@@ -556,34 +555,25 @@ def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, r
     Only the rectangles are touched (aligned outward to even pixels). Inside
     them the overlay is converted to premultiplied YUV (BT.601 limited range);
     chroma uses the 2 x 2 mean of premultiplied colour and of alpha, which is
-    what "over" followed by 4:2:0 subsampling gives. 8-bit OpenCV arithmetic
-    throughout (rounding error within one level).
+    what "over" followed by 4:2:0 subsampling gives. One compiled pass
+    (:func:`arstream.kernels.composite_i420`), one rounding per sample.
 
     Parameters
     ----------
-    yuv : (H * 3 / 2, W) uint8 I420 buffer, modified in place
+    yuv : (H * 3 / 2, W) uint8 I420 buffer, contiguous, modified in place
     width, height : int, even frame size
     bgra : (H, W, 4) uint8, premultiplied B, G, R, A (zero outside ``rects``)
     rects : iterable of (x0, y0, x1, y1), half-open pixel rectangles
     """
-    Y, U, V = i420_planes(yuv, width, height)
-    for x0, y0, x1, y1 in rects:
-        x0, y0 = max(int(x0) & ~1, 0), max(int(y0) & ~1, 0)
-        x1, y1 = min((int(x1) + 1) & ~1, width), min((int(y1) + 1) & ~1, height)
-        if x1 <= x0 or y1 <= y0:
-            continue
-        ov = bgra[y0:y1, x0:x1]
-        inv = cv2.bitwise_not(cv2.extractChannel(ov, 3))  # 255 - alpha
-        ys = Y[y0:y1, x0:x1]
-        cv2.multiply(ys, inv, dst=ys, scale=1.0 / 255.0)
-        cv2.add(ys, cv2.transform(ov, _BGRA_TO_Y), dst=ys)
-        size2 = ((x1 - x0) // 2, (y1 - y0) // 2)
-        uv = cv2.resize(cv2.transform(ov, _BGRA_TO_UV), size2, interpolation=cv2.INTER_AREA)
-        inv2 = cv2.resize(inv, size2, interpolation=cv2.INTER_AREA)
-        for c, plane in ((0, U), (1, V)):
-            ps = plane[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
-            cv2.multiply(ps, inv2, dst=ps, scale=1.0 / 255.0)
-            cv2.add(ps, cv2.extractChannel(uv, c), dst=ps)
+    from arstream.kernels import composite_i420 as blend  # (numba: not imported until a frame is drawn)
+
+    r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
+    r[:, :2] = np.maximum(r[:, :2] & ~1, 0)  # outward to even pixels, inside the frame
+    r[:, 2] = np.minimum((r[:, 2] + 1) & ~1, width)
+    r[:, 3] = np.minimum((r[:, 3] + 1) & ~1, height)
+    r = r[(r[:, 2] > r[:, 0]) & (r[:, 3] > r[:, 1])]
+    if len(r):
+        blend(yuv.reshape(-1), int(width), int(height), np.ascontiguousarray(bgra), r, *_BGRA_TO_YUV)
 
 
 def load_scene_arg(scene):
