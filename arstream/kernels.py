@@ -24,7 +24,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async"]
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -1325,10 +1325,16 @@ def warm_up() -> None:
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
     component_stats(np.zeros((2, 2), np.int32), 1)
-    k4 = np.zeros(4)
-    composite_i420(np.zeros(6, np.uint8), 2, 2, np.zeros((2, 2, 4), np.uint8), np.zeros((1, 4), np.int64), k4, k4, k4)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
+    warm_up_compositor()
+
+
+def warm_up_compositor() -> None:
+    """Load (or compile) :func:`composite_i420` alone: what drawing with known
+    cameras needs (``arstream render``), without the detector's kernels."""
+    k4 = np.zeros(4)
+    composite_i420(np.zeros(6, np.uint8), 2, 2, np.zeros((2, 2, 4), np.uint8), np.zeros((1, 4), np.int64), k4, k4, k4)
 
 
 _warm_thread: threading.Thread | None = None

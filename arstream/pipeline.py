@@ -565,7 +565,7 @@ def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, r
     bgra : (H, W, 4) uint8, premultiplied B, G, R, A (zero outside ``rects``)
     rects : iterable of (x0, y0, x1, y1), half-open pixel rectangles
     """
-    from arstream.kernels import composite_i420 as blend  # (numba: not imported until a frame is drawn)
+    from arstream.kernels import composite_i420 as blend  # (numba: loaded when a RenderStage is made)
 
     r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
     r[:, :2] = np.maximum(r[:, :2] & ~1, 0)  # outward to even pixels, inside the frame
@@ -597,8 +597,10 @@ class RenderStage(Stage):
     name = "render"
 
     def __init__(self, width: int, height: int, scene=None, *, renderer=None, fine_key: bool = True):
+        from arstream.kernels import warm_up_compositor
         from render import GLContextError, Renderer
 
+        warm_up_compositor()  # (numba's set-up, about 0.3 s, before the run rather than in its first frame)
         self.width, self.height = width, height
         self.fine_key = fine_key
         self._fine = None
