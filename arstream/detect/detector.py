@@ -9,11 +9,11 @@ import cv2
 import numpy as np
 
 from arstream.imaging import shrink
+from arstream.kernels import beside_grass, chains, grid_clear, warm_up_async
 from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
-from arstream.kernels import beside_grass, chains, grid_clear, warm_up_async
 from .results import DetectedEllipse, DetectedLine, Detections
 from .ridges import RidgePoints, band_centres, ridge_points
 from .segments import group_lines
@@ -114,7 +114,8 @@ class Detector:
         self._gray_s = np.empty((h, self._squash_w), np.uint8)
         self._region_s = np.empty((h, self._squash_w), np.uint8)
         self._rbufs_s: dict = {}
-        self._block = np.zeros((h, w), np.uint8)  # scratch of the kernels: zero, -1 between calls
+        # the kernels' scratch grids: zero (uint8) or -1 (int32) between calls
+        self._block = np.zeros((h, w), np.uint8)
         self._occ_c = np.zeros((hc, wc), np.uint8)
         self._chain_grid = np.full((hc, wc), -1, np.int32)
         self._runs_grid = np.full((h, self._squash_w), -1, np.int32)
