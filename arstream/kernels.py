@@ -7,7 +7,8 @@ overhead, and it holds the GIL between them; here each is one compiled loop
 that releases the GIL (the pipeline runs detection on its own thread). The
 tracker's nearest-line-pixel lookups (:class:`arstream.solve.LineIndex`) are
 a grid of the points and a compiled search over it: building a k-d tree
-cost more per frame than all its queries.
+cost more per frame than all its queries. The pipeline's I420 composite is
+one pass here too (:func:`composite_i420`).
 
 Compiled on first use and cached next to this file (numba's ``cache=True``;
 the first run after an install takes some seconds more). Loading the cached
@@ -686,6 +687,24 @@ def beside_grass(pts, nrm, d, mask, fx, fy):
 
 
 @nb.njit(**_JIT)
+def _counting_sort(keys, n_keys):
+    """Indices 0..N-1 sorted by ``keys`` (N,) int64 in [0, n_keys), stable:
+    (order (N,), starts (n_keys + 1,)); key k's indices are order[starts[k]:starts[k + 1]]."""
+    n = keys.shape[0]
+    starts = np.zeros(n_keys + 1, np.int64)
+    for i in range(n):
+        starts[keys[i] + 1] += 1
+    for k in range(n_keys):
+        starts[k + 1] += starts[k]
+    fill = starts[:-1].copy()
+    order = np.empty(n, np.int64)
+    for i in range(n):
+        order[fill[keys[i]]] = i
+        fill[keys[i]] += 1
+    return order, starts
+
+
+@nb.njit(**_JIT)
 def point_grid(pts, cell, max_side):
     """Points bucketed by the cells of a grid over their bounding box (a
     counting sort), for :func:`grid_nearest`.
@@ -720,19 +739,11 @@ def point_grid(pts, cell, max_side):
     gw = int((x1 - x0) / cell) + 1
     gh = int((y1 - y0) / cell) + 1
     cid = np.empty(n, np.int64)
-    starts = np.zeros(gw * gh + 1, np.int64)
     for i in range(n):
         cx = int(min((pts[i, 0] - x0) / cell, gw - 1.0))
         cy = int(min((pts[i, 1] - y0) / cell, gh - 1.0))
         cid[i] = cy * gw + cx
-        starts[cid[i] + 1] += 1
-    for c in range(gw * gh):
-        starts[c + 1] += starts[c]
-    fill = starts[:-1].copy()
-    order = np.empty(n, np.int64)
-    for i in range(n):
-        order[fill[cid[i]]] = i
-        fill[cid[i]] += 1
+    order, starts = _counting_sort(cid, gw * gh)
     return order, starts, (x0, y0, cell, gw, gh)
 
 
@@ -1144,17 +1155,7 @@ def hough_votes(pts, nrm, cx, cy, rmax, rho_bin, n_th, n_rho, pad, thr, max_cand
     out = np.empty(k, np.int64)
     for i in range(k):
         out[i] = cand[o[i]]
-    # the points by theta bin (a stable counting sort)
-    starts = np.zeros(n_th + 1, np.int64)
-    for i in range(n):
-        starts[tb[i] + 1] += 1
-    for t in range(n_th):
-        starts[t + 1] += starts[t]
-    fill = starts[:-1].copy()
-    order_t = np.empty(n, np.int64)
-    for i in range(n):
-        order_t[fill[tb[i]]] = i
-        fill[tb[i]] += 1
+    order_t, starts = _counting_sort(tb, n_th)  # the points by theta bin
     return out, order_t, starts
 
 
@@ -1219,26 +1220,13 @@ def direct_fits(S):
 
 @nb.njit(**_JIT)
 def conic_counts(coefs, q, nrm, idx, band, min_cos):
-    """For each conic of ``coefs`` (K, 6), how many of the points q[idx] lie
-    within Sampson distance ``band`` with their normal agreeing with the
-    conic's gradient (|cos| > ``min_cos``): :func:`conic_band`'s selection,
-    counted, for K conics at once."""
-    K = coefs.shape[0]
-    out = np.zeros(K, np.int64)
-    for k in range(K):
-        A, B, C, D, E, F = coefs[k, 0], coefs[k, 1], coefs[k, 2], coefs[k, 3], coefs[k, 4], coefs[k, 5]
-        c = 0
-        for t in range(idx.shape[0]):
-            j = idx[t]
-            x = q[j, 0]
-            y = q[j, 1]
-            f = A * x * x + B * x * y + C * y * y + D * x + E * y + F
-            gx = 2.0 * A * x + B * y + D
-            gy = B * x + 2.0 * C * y + E
-            gn = np.sqrt(gx * gx + gy * gy) + 1e-12
-            if abs(f) < band * gn and abs(nrm[j, 0] * gx + nrm[j, 1] * gy) > min_cos * gn:
-                c += 1
-        out[k] = c
+    """For each conic of ``coefs`` (K, 6), how many of the points q[idx]
+    :func:`conic_band` selects (Sampson distance below ``band``, normal
+    agreeing with the gradient): K conics scored in one call."""
+    out = np.zeros(coefs.shape[0], np.int64)
+    for k in range(coefs.shape[0]):
+        sel, _, _ = conic_band(coefs[k], q, nrm, idx, band, min_cos, False)
+        out[k] = np.count_nonzero(sel)
     return out
 
 

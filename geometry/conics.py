@@ -78,36 +78,26 @@ class Ellipse:
 
     def __post_init__(self) -> None:
         c, ax = self.center, self.axes
-        if type(c) is tuple and type(ax) is tuple and len(c) == 2 and len(ax) == 2 and all(type(v) is float for v in (*c, *ax, self.angle)):
-            # (plain floats, as the fits make them: the same checks without numpy's per-call cost)
-            if not all(math.isfinite(v) for v in (*c, *ax, self.angle)):
-                raise ValueError("Ellipse parameters must be finite")
-            if ax[0] <= 0 or ax[1] <= 0:
-                raise ValueError(f"Ellipse axes must be positive, got {ax}")
-            a, b, angle = ax[0], ax[1], self.angle
-            if b > a:
-                a, b = b, a
-                angle += np.pi / 2
-            object.__setattr__(self, "axes", (a, b))
-            object.__setattr__(self, "angle", _wrap_half_pi(angle))
-            return
-        c = np.asarray(c, dtype=np.float64)
-        ax = np.asarray(ax, dtype=np.float64)
-        if c.shape != (2,) or ax.shape != (2,):
-            raise ValueError(f"Ellipse needs center (2,) and axes (2,), got {c.shape} and {ax.shape}")
-        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(ax)) and np.isfinite(self.angle)):
-            raise ValueError("Ellipse parameters must be finite")
-        if np.any(ax <= 0):
-            raise ValueError(f"Ellipse axes must be positive, got {tuple(ax)}")
-        a, b = float(ax[0]), float(ax[1])
+        if not (type(c) is tuple and type(ax) is tuple and len(c) == 2 and len(ax) == 2 and all(type(v) is float for v in (*c, *ax))):
+            # arrays, ints, numpy scalars: to pairs of plain floats (the fits pass
+            # those already, and skip numpy's per-call cost here)
+            c = np.asarray(c, dtype=np.float64)
+            ax = np.asarray(ax, dtype=np.float64)
+            if c.shape != (2,) or ax.shape != (2,):
+                raise ValueError(f"Ellipse needs center (2,) and axes (2,), got {c.shape} and {ax.shape}")
+            c, ax = (float(c[0]), float(c[1])), (float(ax[0]), float(ax[1]))
         angle = float(self.angle)
+        if not all(math.isfinite(v) for v in (*c, *ax, angle)):
+            raise ValueError("Ellipse parameters must be finite")
+        if ax[0] <= 0 or ax[1] <= 0:
+            raise ValueError(f"Ellipse axes must be positive, got {ax}")
+        a, b = ax
         if b > a:
             a, b = b, a
             angle += np.pi / 2
-        angle = _wrap_half_pi(angle)
-        object.__setattr__(self, "center", (float(c[0]), float(c[1])))
+        object.__setattr__(self, "center", c)
         object.__setattr__(self, "axes", (a, b))
-        object.__setattr__(self, "angle", angle)
+        object.__setattr__(self, "angle", _wrap_half_pi(angle))
 
     @property
     def conic(self) -> np.ndarray:

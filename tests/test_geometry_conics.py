@@ -247,7 +247,7 @@ def test_degenerate_inputs(call, message):
     ],
 )
 def test_ellipse_rejects_bad_parameters(center, axes, angle, match):
-    # plain floats take a fast path, numpy values the general one: the same errors
+    # plain floats and numpy values: the same errors
     with pytest.raises(ValueError, match=match):
         gc.Ellipse(center=center, axes=axes, angle=angle)
     with pytest.raises(ValueError, match=match):

@@ -12,7 +12,7 @@
    whose ridge normal agrees with the conic's gradient there.
 4. Refinement: iteratively reweighted direct fits on the inliers (Sampson
    gradient weights, which turn the algebraic fit into an approximately
-   geometric one; :func:`geometry.conics.fit_ellipse_direct`).
+   geometric one; compiled: :func:`arstream.kernels.refine_conic`).
 5. Validation: size, shape (a ground circle seen from above: minor axis
    roughly vertical, b/a well under 1 but above 0.1, i.e. seen from at least
    about 6 degrees above the pitch: the tip of a flatter one fits two lines
@@ -30,7 +30,7 @@ import numpy as np
 from arstream.kernels import chains, conic_band, conic_counts, direct_fits, perimeter_bins, refine_conic
 from geometry.conics import Ellipse, ellipse_from_conic
 
-__all__ = ["EllipseCandidate", "find_ellipses", "coverage"]
+__all__ = ["EllipseCandidate", "find_ellipses"]
 
 
 
@@ -47,35 +47,17 @@ def _monomials(q: np.ndarray) -> np.ndarray:
     return np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
 
 
-def _batched_direct_fit(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The direct ellipse fit of each scatter matrix (K, 6, 6): coef (K, 6),
-    valid (K,) (:func:`arstream.kernels.direct_fit`, the compiled form of
-    :func:`geometry.conics.direct_fit_scatter`: numpy's batched solvers cost
-    tens of microseconds per call, and a frame makes dozens of hypotheses)."""
-    return direct_fits(np.ascontiguousarray(S, np.float64))
-
-
-def coverage(pts: np.ndarray, e: Ellipse, *, bins: int = 64, density: float = 0.3, spacing: float = 1.0, visible=None) -> tuple[float, float]:
-    """Share of the ellipse's perimeter with support.
+class _PerimeterBins:
+    """Share of an ellipse's perimeter with support, in two steps.
 
     The perimeter is cut into ``bins`` equal steps of the parametric angle; a
     bin counts when it holds at least ``density`` of the points expected along
     its arc length at one point per ``spacing`` px
-    (:func:`arstream.kernels.perimeter_bins`).
-
-    Returns
-    -------
-    (coverage, visible_coverage) : covered arc length over the whole
-    perimeter, and over the part of it where ``visible`` (a callable, points
-    (N, 2) -> (N,) bool; everything when None) says a marking could be seen.
+    (:func:`arstream.kernels.perimeter_bins`). ``cov``: covered arc length over
+    the whole perimeter, at once; :meth:`visible_coverage`: over the part of
+    it that ``visible`` (a callable, points (N, 2) -> (N,) bool; everything
+    when None) says could be seen, asked only when wanted.
     """
-    bins_ = _PerimeterBins(pts, e, bins=bins, density=density, spacing=spacing)
-    return bins_.cov, bins_.visible_coverage(visible)
-
-
-class _PerimeterBins:
-    """:func:`coverage` in two steps: the coverage at once, the share of the
-    visible perimeter (which asks ``visible`` about the bins) only when wanted."""
 
     __slots__ = ("cov", "covered", "seg", "mid")
 
@@ -225,11 +207,11 @@ def find_ellipses(
     s = np.sqrt(2.0) / max(float(np.mean(np.hypot(pts[:, 0] - m[0], pts[:, 1] - m[1]))), 1e-9)
     q = (pts - m) * s
     Tn = np.array([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
-    Tn_inv = np.linalg.inv(Tn)
+    Tfq = Tn @ np.linalg.inv(A_wf)  # frame pixels -> normalised coordinates
+    Tqf = np.linalg.inv(Tfq)  # and back
     Dall = _monomials(q)
     free = np.ones(n, bool)
     out: list[EllipseCandidate] = []
-    Tfq = Tn @ np.linalg.inv(A_wf)  # frame pixels -> normalised coordinates
     ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw, Tfq)
     priors = [np.asarray(C, float) for C in (prior or ())]
     for _round in range(max_ellipses):
@@ -237,8 +219,7 @@ def find_ellipses(
         # the ellipses of the previous frame first: a wide band around each
         # (the camera moved), refined and validated like any hypothesis
         while priors and accepted is None:
-            Cq = Tn_inv.T @ (A_wf.T @ priors.pop(0) @ A_wf) @ Tn_inv
-            c0 = _conic_to_coef(Cq)
+            c0 = _conic_to_coef(Tqf.T @ priors.pop(0) @ Tqf)
             accepted = _accept(c0 / np.linalg.norm(c0), np.flatnonzero(free), ctx, first_band=prior_band)
         if accepted is None:
             accepted = _search(free, labels, nlab, n_cc, Dall, ctx, first=not out)
@@ -247,8 +228,7 @@ def find_ellipses(
         out.append(accepted)
         # release everything near this ellipse
         fidx = np.flatnonzero(free)
-        Cq = Tn_inv.T @ (A_wf.T @ accepted.conic @ A_wf) @ Tn_inv
-        near, _, _ = conic_band(_conic_to_coef(Cq), q, nrm, fidx, 2.5 * tol * s, 0.0, False)
+        near, _, _ = conic_band(_conic_to_coef(Tqf.T @ accepted.conic @ Tqf), q, nrm, fidx, 2.5 * tol * s, 0.0, False)
         free[fidx[near]] = False
         free[accepted.idx] = False
     return out
@@ -304,7 +284,7 @@ def _try(S, fidx, ctx):
     """Fit, screen, score and refine a stack of hypotheses (scatter matrices
     (K, 6, 6)); the first that validates, or None."""
     q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq = ctx
-    coef, valid = _batched_direct_fit(S)
+    coef, valid = direct_fits(np.ascontiguousarray(S, np.float64))
     # plausibility in working pixels before any scoring
     cen, a, b, ang, ok = _params(_coefs_to_pixels(coef, s, m))
     valid &= ok & (a > 0.05 * w) & (a < 1.5 * w) & (b > 0.012 * w) & (b < 0.85 * a) & (b > 0.05 * a) & (np.abs(ang) < np.radians(30))
