@@ -1013,7 +1013,7 @@ def refine_conic(coef0, q, nrm, idx, s, tol, first_band):
 @nb.njit(**_JIT)
 def perimeter_bins(pts, cx, cy, angle, a, b, bins, density, spacing):
     """Support of an ellipse's perimeter in bins of its parametric angle
-    (:func:`arstream.detect.ellipses.coverage`).
+    (the ellipse validation's coverage, :class:`arstream.detect.ellipses._PerimeterBins`).
 
     The perimeter is cut into ``bins`` equal steps of the parametric angle; a
     bin is covered when it holds at least ``density`` of the points expected
