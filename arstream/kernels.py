@@ -7,7 +7,9 @@ overhead, and it holds the GIL between them; here each is one compiled loop
 that releases the GIL (the pipeline runs detection on its own thread). The
 tracker's nearest-line-pixel lookups (:class:`arstream.solve.LineIndex`) are
 a grid of the points and a compiled search over it: building a k-d tree
-cost more per frame than all its queries. The pipeline's I420 composite is
+cost more per frame than all its queries. Its refinement projects the pitch
+model (:func:`project_points`) and evaluates its residuals and Jacobian
+(:func:`marking_residuals`) in compiled loops too. The pipeline's I420 composite is
 one pass here too (:func:`composite_i420`).
 
 Compiled on first use and cached next to this file (numba's ``cache=True``;
@@ -25,7 +27,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "perimeter_bins", "point_grid", "refine_conic", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "marking_residuals", "perimeter_bins", "point_grid", "project_points", "refine_conic", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -1293,6 +1295,133 @@ def composite_i420(yuv, width, height, bgra, rects, ky, ku, kv):
                 yuv[v0 + c] = min(max(int(yuv[v0 + c] * keep + 0.25 * sv + 0.5), 0), 255)
 
 
+@nb.njit(**_JIT)
+def project_points(P, R, t, K, dist, width, height, margin, min_depth):
+    """Pinhole projection with a radial lens, and which points land in view.
+
+    The same model as :meth:`geometry.camera.Camera.project`: camera
+    coordinates ``Xc = R X + t``, normalised ``x = Xc[:2] / Xc[2]`` bent by
+    ``(1 + k1 r^2 + k2 r^4 + ...)``, then ``K``. A point past the radius
+    where the lens polynomial stops growing (``d r_d / d r <= 0``) gets no
+    pixel, as one at depth ``<= min_depth``.
+
+    Parameters
+    ----------
+    P : (N, 3) float64 world points (metres)
+    R : (3, 3), t : (3,) world -> camera
+    K : (3, 3) intrinsic matrix
+    dist : (k,) float64 radial coefficients (may be empty)
+    width, height : frame size (pixels)
+    margin : float, pixels inside the frame's edge pixels (negative: beyond them)
+    min_depth : float, least camera-frame depth (metres)
+
+    Returns
+    -------
+    px : (N, 2) float64 pixels, NaN where none
+    inside : (N,) bool, a pixel within ``[margin, size - 1 - margin]`` on both axes
+    """
+    n = P.shape[0]
+    px = np.empty((n, 2))
+    inside = np.zeros(n, np.bool_)
+    nd = dist.shape[0]
+    xmax = width - 1 - margin
+    ymax = height - 1 - margin
+    for i in range(n):
+        X0, X1, X2 = P[i, 0], P[i, 1], P[i, 2]
+        z = R[2, 0] * X0 + R[2, 1] * X1 + R[2, 2] * X2 + t[2]
+        if not z > min_depth:
+            px[i, 0] = np.nan
+            px[i, 1] = np.nan
+            continue
+        x = (R[0, 0] * X0 + R[0, 1] * X1 + R[0, 2] * X2 + t[0]) / z
+        y = (R[1, 0] * X0 + R[1, 1] * X1 + R[1, 2] * X2 + t[1]) / z
+        if nd:
+            r2 = x * x + y * y
+            factor = 1.0
+            slope = 1.0
+            rp = 1.0
+            for k in range(nd):
+                rp *= r2
+                factor += dist[k] * rp
+                slope += (2 * k + 3) * dist[k] * rp
+            if not slope > 0:
+                px[i, 0] = np.nan
+                px[i, 1] = np.nan
+                continue
+            x *= factor
+            y *= factor
+        u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
+        v = K[1, 0] * x + K[1, 1] * y + K[1, 2]
+        px[i, 0] = u
+        px[i, 1] = v
+        inside[i] = u >= margin and u <= xmax and v >= margin and v <= ymax
+    return px, inside
+
+
+@nb.njit(**_JIT)
+def marking_residuals(X, Q, nrm, R, C, f, cx, cy, k1):
+    """Residuals and Jacobian of a camera against matched line pixels.
+
+    The residual of model point ``X_i`` is the signed distance along the
+    image normal ``nrm_i`` of its projection from its matched line pixel
+    ``Q_i``: ``r_i = n_i . (f x_d + c - Q_i)``, with ``x_d`` the normalised
+    point ``(Xc_x, Xc_y) / Xc_z`` of ``Xc = R (X - C)`` bent by
+    ``(1 + k1 r^2)``; a point behind the camera has the constant residual
+    50 px (and no derivative).
+
+    Parameters
+    ----------
+    X : (N, 3) model points (metres); Q : (N, 2) matched pixels;
+    nrm : (N, 2) unit image normals of the projected markings
+    R : (3, 3) rotation, C : (3,) centre (world -> camera ``R (X - C)``)
+    f : focal length (px); cx, cy : principal point; k1 : radial coefficient
+
+    Returns
+    -------
+    r : (N,) residuals (px)
+    G : (N, 8) their derivatives by (w_x, w_y, w_z: a left rotation
+        perturbation ``R <- exp([w]x) R``, C_x, C_y, C_z, log f, k1)
+    """
+    n = X.shape[0]
+    r = np.empty(n)
+    G = np.empty((n, 8))
+    for i in range(n):
+        d0, d1, d2 = X[i, 0] - C[0], X[i, 1] - C[1], X[i, 2] - C[2]
+        x = R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
+        y = R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
+        z = R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
+        if not z > 0:
+            r[i] = 50.0
+            for j in range(8):
+                G[i, j] = 0.0
+            continue
+        iz = 1.0 / z
+        u, v = x * iz, y * iz
+        r2 = u * u + v * v
+        s = 1.0 + k1 * r2
+        n0, n1 = nrm[i, 0], nrm[i, 1]
+        r[i] = n0 * (f * u * s + cx - Q[i, 0]) + n1 * (f * v * s + cy - Q[i, 1])
+        # d(pixel)/d(u, v) through the lens, contracted with the normal
+        a = f * (s + 2 * k1 * u * u)
+        b = f * (2 * k1 * u * v)
+        c = f * (s + 2 * k1 * v * v)
+        gu = n0 * a + n1 * b
+        gv = n0 * b + n1 * c
+        # dr/dXc
+        e0, e1, e2 = gu * iz, gv * iz, -(gu * u + gv * v) * iz
+        # left rotation perturbation: dXc/dw = -[Xc]x
+        G[i, 0] = e2 * y - e1 * z
+        G[i, 1] = e0 * z - e2 * x
+        G[i, 2] = e1 * x - e0 * y
+        # dXc/dC = -R
+        G[i, 3] = -(e0 * R[0, 0] + e1 * R[1, 0] + e2 * R[2, 0])
+        G[i, 4] = -(e0 * R[0, 1] + e1 * R[1, 1] + e2 * R[2, 1])
+        G[i, 5] = -(e0 * R[0, 2] + e1 * R[1, 2] + e2 * R[2, 2])
+        G[i, 6] = f * s * (n0 * u + n1 * v)
+        G[i, 7] = f * r2 * (n0 * u + n1 * v)
+    return r, G
+
+
 def warm_up() -> None:
     """Load (or compile) every kernel by calling it once on tiny inputs."""
     th = np.zeros((8, 8), np.uint8)
@@ -1315,6 +1444,9 @@ def warm_up() -> None:
     component_stats(np.zeros((2, 2), np.int32), 1)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
+    P3, I3 = np.zeros((1, 3)), np.eye(3)
+    project_points(P3, I3, np.zeros(3), I3, np.zeros(0), 2, 2, 0.0, 0.5)
+    marking_residuals(P3, p, p, I3, np.zeros(3), 1.0, 0.0, 0.0, 0.0)
     warm_up_compositor()
 
 

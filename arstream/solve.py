@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 import scipy.optimize
 
-from arstream.kernels import grid_nearest, point_grid
+from arstream.kernels import grid_nearest, marking_residuals, point_grid, project_points
 from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
 from geometry.homography import homographies_from_lines
@@ -459,25 +459,19 @@ class Refinement:
     params: tuple = ()
 
 
-def _project(K, R, t, dist, X):
-    Xc = X @ R.T + t
-    z = Xc[:, 2:3]
-    xn = Xc[:, :2] / z
-    if dist:
-        r2 = (xn * xn).sum(1, keepdims=True)
-        xn = xn * (1 + dist[0] * r2)
-    return xn * K[0, 0] + K[:2, 2], Xc[:, 2]
-
-
 def _visible(cam: Camera, model: ModelSamples, size, margin=2.0):
+    """Which model samples ``cam`` sees at least 0.5 m in front and ``margin``
+    px inside the frame: (inside (N,) bool, pixels (N, 2), NaN where the
+    projection has none: behind, or past the lens model's fold)."""
     W, H = size
-    Xc = model.points @ cam.R.T + cam.t
-    front = Xc[:, 2] > 0.5
-    px = np.full((len(Xc), 2), np.nan)
-    px[front] = cam.project(model.points[front])
-    with np.errstate(invalid="ignore"):
-        inside = front & (px[:, 0] >= margin) & (px[:, 0] <= W - 1 - margin) & (px[:, 1] >= margin) & (px[:, 1] <= H - 1 - margin)
+    px, inside = project_points(model.points, *_lens_args(cam), int(W), int(H), float(margin), 0.5)
     return inside, px
+
+
+def _lens_args(cam: Camera) -> tuple:
+    """``cam``'s R, t, K and radial coefficients as the compiled projection takes them."""
+    c = np.ascontiguousarray
+    return c(cam.R, np.float64), c(cam.t, np.float64), c(cam.K, np.float64), np.asarray(cam.dist, np.float64)
 
 
 def explained_share(camera: Camera, index: LineIndex, size: tuple[int, int], model: ModelSamples, radius: float = 2.5) -> float:
@@ -619,12 +613,10 @@ def refine_camera(
         if ok.sum() < 8:
             raise ValueError("fewer than 8 pitch-marking points matched to detected lines")
         X = model.points[idx[ok]]
-        Tg = model.tangents[idx[ok]]
         Q = q[ok]
         # image normals of the projected markings at the current estimate
-        p_a = cam.project(X)
-        p_b = cam.project(X + 0.05 * Tg)
-        tg = p_b - p_a
+        p_ab, _ = project_points(np.concatenate([X, X + 0.05 * model.tangents[idx[ok]]]), *_lens_args(cam), int(size[0]), int(size[1]), 0.0, 0.0)
+        tg = p_ab[len(X) :] - p_ab[: len(X)]
         nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
         nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
         R_ref = cam.R
@@ -634,48 +626,29 @@ def refine_camera(
             d = R_ref[2]  # optical axis in the pitch frame
             h = np.cross([0.0, 0.0, 1.0], d)
             Bw = np.column_stack([R_ref @ (h / max(np.linalg.norm(h), 1e-12)), [0.0, 0.0, 1.0]])
+        # the kernel's Jacobian columns (rotation, centre, log f, k1) -> the parameters
+        M = np.zeros((8, len(names)))
+        M[:3, :nr] = Bw if fixed_pan else np.eye(3)
+        if free:
+            M[3:6, 3:6] = np.eye(3)
+        M[6, i_f] = 1.0
+        if estimate_k1:
+            M[7, i_k] = 1.0
+        last = [None, None]  # the parameters of the last evaluation and its Jacobian
 
-        def fun(th):
+        def evaluate(th):
             R, C, f, k1 = unpack(th)
-            Xc = (X - C) @ R.T
-            z = Xc[:, 2]
-            xn = Xc[:, :2] / z[:, None]
-            if k1:
-                xn = xn * (1 + k1 * (xn * xn).sum(1, keepdims=True))
-            r = ((f * xn + pp - Q) * nrm).sum(1)
-            r[z <= 0] = 50.0
+            r, G = marking_residuals(X, Q, nrm, np.ascontiguousarray(R), np.ascontiguousarray(C, np.float64), f, pp[0], pp[1], k1)
+            last[0], last[1] = th, G
             return r
 
         def jac(th):
-            R, C, f, k1 = unpack(th)
-            Xc = (X - C) @ R.T
-            x, y, z = Xc[:, 0], Xc[:, 1], Xc[:, 2]
-            iz = 1.0 / z
-            u, v = x * iz, y * iz
-            r2 = u * u + v * v
-            s = 1 + k1 * r2
-            # d(pixel)/d(u, v) with distortion, then contracted with the normal
-            a = f * (s + 2 * k1 * u * u)
-            b = f * (2 * k1 * u * v)
-            c = f * (s + 2 * k1 * v * v)
-            gu = nrm[:, 0] * a + nrm[:, 1] * b  # dr/du
-            gv = nrm[:, 0] * b + nrm[:, 1] * c  # dr/dv
-            # dr/dXc = gu * du/dXc + gv * dv/dXc
-            dX = np.column_stack([gu * iz, gv * iz, -(gu * u + gv * v) * iz])
-            J = np.empty((len(X), len(names)))
-            # left rotation perturbation: dXc/domega = -[Xc]x, omega = Bw theta
-            Jw = np.column_stack([dX[:, 2] * y - dX[:, 1] * z, dX[:, 0] * z - dX[:, 2] * x, dX[:, 1] * x - dX[:, 0] * y])
-            J[:, :nr] = Jw @ Bw if fixed_pan else Jw
-            if free:
-                J[:, 3:6] = -(dX @ R)
-            xd_u = u * s
-            xd_v = v * s
-            J[:, i_f] = f * (nrm[:, 0] * xd_u + nrm[:, 1] * xd_v)
-            if estimate_k1:
-                J[:, i_k] = f * r2 * (nrm[:, 0] * u + nrm[:, 1] * v)
-            return J
+            # (the LM asks for the Jacobian where it last evaluated the residuals)
+            if last[0] is not th and not np.array_equal(last[0], th):
+                evaluate(th)
+            return last[1] @ M
 
-        res_fin = robust_lm(fun, jac, theta0(), f_scale=1.0, max_iter=12)
+        res_fin = robust_lm(evaluate, jac, theta0(), f_scale=1.0, max_iter=12)
         R, C_cur, f, k1_cur = unpack(res_fin.x)
         C_cur = np.array(C_cur, dtype=np.float64)
         logf = float(np.log(f))

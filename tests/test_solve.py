@@ -505,3 +505,67 @@ def test_line_index_edge_cases():
     assert one.nearest(np.zeros((0, 2)), 3.0)[0].shape == (0,)
     with pytest.raises(ValueError, match="finite"):
         LineIndex(np.array([[0.0, 0.0], [np.nan, 1.0]]))
+
+
+@pytest.mark.parametrize("dist", [(), (-0.08,), (0.3, -0.2)], ids=["pinhole", "k1", "k1k2-fold"])
+def test_compiled_projection_matches_camera_project(dist):
+    # kernels.project_points (the refinement's and the visibility test's projection)
+    # against geometry.camera.Camera.project: same pixels, NaN behind the camera and
+    # past the lens polynomial's fold, and the in-view test with a margin
+    from arstream.kernels import project_points
+
+    rng = np.random.default_rng(3)
+    cam = camera_from_ptz(np.array([0.0, -40.0, 12.0]), PTZ(0.2, 0.3, 0.02, 900.0), (640.0, 360.0), dist=dist)
+    X = np.column_stack([rng.uniform(-80, 80, 4000), rng.uniform(-80, 80, 4000), rng.uniform(-2, 30, 4000)])
+    want = cam.project(X)
+    z = cam.to_camera(X)[:, 2]
+    for min_depth, margin in ((0.0, 0.0), (0.5, 2.0), (3.0, -640.0)):
+        px, inside = project_points(X, cam.R, cam.t, cam.K, np.asarray(dist, np.float64), 1280, 720, margin, min_depth)
+        front = z > min_depth
+        assert np.array_equal(np.isnan(px[:, 0]), ~front | np.isnan(want[:, 0]))
+        ok = ~np.isnan(px[:, 0])
+        assert np.abs(px[ok] - want[ok]).max() < 1e-9 * np.abs(want[ok]).max()
+        with np.errstate(invalid="ignore"):
+            want_in = ok & (want[:, 0] >= margin) & (want[:, 0] <= 1279 - margin) & (want[:, 1] >= margin) & (want[:, 1] <= 719 - margin)
+        assert np.array_equal(inside, want_in)
+    assert (z <= 0).any()  # points behind the camera occur
+    if len(dist) == 2:  # and, with this lens, points past its fold
+        assert (np.isnan(want[:, 0]) & (z > 0)).sum() > 10
+
+
+@pytest.mark.parametrize("k1", [0.0, -0.06])
+def test_marking_residuals_and_their_jacobian(k1):
+    # kernels.marking_residuals: residuals = normal distance of the distorted
+    # projection from the matched pixel, 50 (flat) behind the camera; its Jacobian
+    # (left rotation perturbation, centre, log f, k1) against central differences
+    import cv2
+
+    from arstream.kernels import marking_residuals
+
+    rng = np.random.default_rng(5)
+    C = np.array([2.0, -45.0, 14.0])
+    cam = camera_from_ptz(C, PTZ(0.1, 0.35, -0.01, 1100.0), (640.0, 360.0))
+    X = MODEL.points[rng.choice(len(MODEL.points), 300, replace=False)]
+    X = np.concatenate([X, [[2.0, -60.0, 14.0]]])  # behind the camera
+    pix = cam.project(X[:-1])
+    Q = np.concatenate([pix + rng.normal(0, 2, pix.shape), [[0.0, 0.0]]])
+    ang = rng.uniform(0, np.pi, len(X))
+    nrm = np.column_stack([np.cos(ang), np.sin(ang)])
+    f, cx, cy = cam.focal, 640.0, 360.0
+
+    def residuals(th):
+        R = cv2.Rodrigues(th[:3])[0] @ cam.R
+        Xc = (X - th[3:6]) @ R.T
+        xn = Xc[:, :2] / Xc[:, 2:3]
+        xd = xn * (1 + th[7] * (xn**2).sum(1, keepdims=True))
+        r = ((np.exp(th[6]) * xd + [cx, cy] - Q) * nrm).sum(1)
+        return np.where(Xc[:, 2] > 0, r, 50.0)
+
+    th0 = np.concatenate([np.zeros(3), C, [np.log(f)], [k1]])
+    r, G = marking_residuals(X, Q, nrm, cam.R, C, f, cx, cy, k1)
+    assert np.allclose(r, residuals(th0), rtol=0, atol=1e-9)
+    assert r[-1] == 50.0 and not G[-1].any()
+    steps = np.array([1e-6] * 3 + [1e-4] * 3 + [1e-6, 1e-6])
+    num = np.column_stack([(residuals(th0 + e) - residuals(th0 - e)) / (2 * e[j]) for j, e in enumerate(np.diag(steps))])
+    scale = np.abs(num).max(axis=0)
+    assert np.all(np.abs(G - num).max(axis=0) <= 1e-5 * scale + 1e-9)
