@@ -84,6 +84,7 @@ __all__ = [
     "Summary",
     "Interrupted",
     "composite_i420",
+    "GrassKeyI420",
     "load_scene_arg",
     "process",
     "render_clip",
@@ -576,6 +577,61 @@ def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, r
         blend(yuv.reshape(-1), int(width), int(height), np.ascontiguousarray(bgra), r, *_BGRA_TO_YUV)
 
 
+class GrassKeyI420:
+    """:func:`render.keying.refine_matte` (with :func:`render.keying.green_matte`'s
+    default grass colour) of I420 frames, without converting them to BGR: the
+    same matte, pixel for pixel, in one compiled pass
+    (:func:`arstream.kernels.key_i420`). One object per clip: it keeps the
+    table of which colours are grass (2 MiB, filled as colours occur)."""
+
+    def __init__(self):
+        from render.keying import GRASS_HUE, MIN_SATURATION, MIN_VALUE
+
+        i = np.arange(1, 256, dtype=np.float64)  # OpenCV's 8-bit HSV divisions (round half to even, as cvRound)
+        sdiv, hdiv = np.zeros(256, np.int64), np.zeros(256, np.int64)
+        sdiv[1:] = np.rint(255 * 4096 / i)
+        hdiv[1:] = np.rint(180 * 4096 / (6 * i))
+        self._params = (int(GRASS_HUE[0]), int(GRASS_HUE[1]), int(MIN_SATURATION), int(MIN_VALUE), sdiv, hdiv)
+        self._lut = np.zeros((65536, 4), np.uint64)
+        self._built = np.zeros(65536, np.bool_)
+        self._se: dict = {}
+
+    def __call__(self, out: np.ndarray, yuv: np.ndarray, width: int, height: int, rects, pitch: np.ndarray, *, keep: np.ndarray | None = None, keep_grow: int = 0) -> np.ndarray:
+        """Key the frame inside ``rects``.
+
+        Parameters
+        ----------
+        out : (H, W) uint8, written inside ``rects`` (255 = grass)
+        yuv : (H * 3 / 2, W) uint8 I420 buffer, contiguous
+        width, height : int, even frame size
+        rects : iterable of (x0, y0, x1, y1) half-open pixel rectangles (clipped to the frame)
+        pitch : (h', w') uint8 whole-frame mask at any resolution, non-zero = pitch
+        keep : (h'', w'') uint8 whole-frame mask at any resolution, optional
+        keep_grow : pixels by which ``keep`` is grown (an elliptical structuring element)
+
+        Returns
+        -------
+        ``out``
+        """
+        from arstream.kernels import key_i420  # (numba: loaded when a RenderStage is made)
+
+        r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
+        r[:, [0, 2]] = np.clip(r[:, [0, 2]], 0, width)
+        r[:, [1, 3]] = np.clip(r[:, [1, 3]], 0, height)
+        half = self._se.get(keep_grow)
+        if half is None:
+            if keep_grow > 0:
+                se = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * keep_grow + 1, 2 * keep_grow + 1))
+                half = np.array([(np.count_nonzero(row) - 1) // 2 if row.any() else -1 for row in se], np.int64)
+            else:
+                half = np.zeros(1, np.int64)
+            self._se[keep_grow] = half
+        c = np.ascontiguousarray
+        kp = np.zeros((0, 0), np.uint8) if keep is None else c(keep, np.uint8)
+        key_i420(yuv.reshape(-1), int(width), int(height), r, c(pitch, np.uint8), kp, half, self._lut, self._built, *self._params, out)
+        return out
+
+
 def load_scene_arg(scene):
     """A :class:`render.Scene` from None (the demo scene), a path, or a Scene."""
     import render
@@ -604,6 +660,7 @@ class RenderStage(Stage):
         self.width, self.height = width, height
         self.fine_key = fine_key
         self._fine = None
+        self._key_i420: GrassKeyI420 | None = None
         if renderer is None:
             try:
                 renderer = Renderer(width, height, load_scene_arg(scene))
@@ -626,31 +683,26 @@ class RenderStage(Stage):
         """The renderer's grass matte for this frame. With ``fine_key`` and a
         detector's pitch mask: a callable that keys the frame at full resolution
         inside the overlay's rectangles only (render.keying.refine_matte: grass
-        colour or a detected line pixel, on the pitch), so that players and the
-        ball pass in front of on-grass graphics at pixel precision; else the
-        matte as it is (the renderer stretches a small one)."""
+        colour or a detected line pixel, on the pitch; :class:`GrassKeyI420` on an
+        I420 frame), so that players and the ball pass in front of on-grass
+        graphics at pixel precision; else the matte as it is (the renderer
+        stretches a small one)."""
         matte = item.matte
         if matte is None or not self.fine_key or matte.shape[0] >= self.height:
             return self._full_matte(matte)  # (a full-size matte is already fine)
-        from render.keying import refine_matte
-
         f = item.frame
-        if f.yuv is not None:
-            from arstream.source import i420_region_bgr
-
-            def region(r):
-                return i420_region_bgr(f.yuv, f.width, f.height, r)
-        else:
-            img = f.image
-
-            def region(r):
-                return img[r[1] : r[3], r[0] : r[2]]
-
         if self._fine is None:
             self._fine = np.zeros((self.height, self.width), np.uint8)
         lines = item.lines if item.lines is not None else getattr(item.detections, "line_small", None)
         grow = max(1, int(round(3 * self.width / 1280)))  # about half a painted line's width
-        return lambda rects: refine_matte(self._fine, rects, region, matte, keep=lines, keep_grow=grow)
+        if f.yuv is not None:  # the same key, on the I420 planes (compiled)
+            if self._key_i420 is None:
+                self._key_i420 = GrassKeyI420()
+            return lambda rects: self._key_i420(self._fine, f.yuv, f.width, f.height, rects, matte, keep=lines, keep_grow=grow)
+        from render.keying import refine_matte
+
+        img = f.image
+        return lambda rects: refine_matte(self._fine, rects, lambda r: img[r[1] : r[3], r[0] : r[2]], matte, keep=lines, keep_grow=grow)
 
     def process(self, item: Item) -> list[Item]:
         cam = item.estimate.camera if item.estimate is not None else None

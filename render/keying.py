@@ -11,18 +11,24 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["green_matte", "refine_matte"]
+__all__ = ["GRASS_HUE", "MIN_SATURATION", "MIN_VALUE", "green_matte", "refine_matte"]
+
+#: OpenCV hue range (0..180) of grass: yellow-green to green-cyan
+GRASS_HUE = (35, 85)
+#: least saturation and value (0..255) of grass (shadows on grass stay grass)
+MIN_SATURATION = 70
+MIN_VALUE = 40
 
 
-def green_matte(frame_bgr: np.ndarray, *, hue=(35, 85), min_saturation: int = 70, min_value: int = 40,
+def green_matte(frame_bgr: np.ndarray, *, hue=GRASS_HUE, min_saturation: int = MIN_SATURATION, min_value: int = MIN_VALUE,
                 out: np.ndarray | None = None) -> np.ndarray:
     """Grass matte of a BGR frame by hue.
 
     Parameters
     ----------
     frame_bgr : (H, W, 3) uint8, BGR
-    hue : (lo, hi), OpenCV hue range (0..180) of grass; default 35..85 (yellow-green to green-cyan)
-    min_saturation, min_value : 0..255 thresholds (shadows on grass stay grass down to ``min_value``)
+    hue : (lo, hi), OpenCV hue range (0..180) of grass; default :data:`GRASS_HUE`
+    min_saturation, min_value : 0..255 thresholds; default :data:`MIN_SATURATION`, :data:`MIN_VALUE`
     out : (H, W) uint8, optional, preallocated result
 
     Returns

@@ -23,7 +23,7 @@ import pytest
 
 import arstream
 from arstream.cli import main
-from arstream.pipeline import Analysis, Summary, composite_i420
+from arstream.pipeline import Analysis, GrassKeyI420, Summary, composite_i420
 from arstream.sink import VideoSink, atomic_path, read_jsonl
 from arstream.source import VideoSource, i420_planes, i420_region_bgr
 from arstream.synth import generate
@@ -443,6 +443,41 @@ def test_composite_i420_matches_bgr_over():
     yuv2 = before.copy()
     composite_i420(yuv2, W, H, ov, [])
     assert np.array_equal(yuv2, before)
+
+
+@pytest.mark.parametrize("grow", [0, 3, 4])
+def test_key_i420_is_refine_matte_on_the_i420_planes(grow):
+    # the compiled key of an I420 frame (pipeline.GrassKeyI420) against
+    # render.keying.refine_matte on the BGR conversion of the same rectangles:
+    # pixel for pixel, on a frame of the sample clip (grass, lines, players,
+    # stands) and on random colours (every hue, saturation and value)
+    from arstream.source import VideoSource
+    from render.keying import refine_matte
+
+    with VideoSource(os.path.join(ROOT, "samples", "wide", "clip.mp4")) as src:
+        frame = next(iter(src))
+    W, H = frame.width, frame.height
+    rng = np.random.default_rng(grow)
+    noise = cv2.cvtColor(rng.integers(0, 256, (H, W, 3), dtype=np.uint8), cv2.COLOR_BGR2YUV_I420)
+    pitch = np.zeros((90, 160), np.uint8)
+    pitch[20:, 5:150] = 255  # a coarse mask (nearest samples)
+    keep = np.zeros((360, 640), np.uint8)
+    keep[rng.integers(0, 360, 400), rng.integers(0, 640, 400)] = 255
+    keep[100, 50:600] = 255
+    rects = [(0, 0, 1280, 720), (100, 37, 333, 301), (1200, 600, 1280, 720), (640, 0, 641, 720), (5, 5, 5, 9)]
+    key_i420 = GrassKeyI420()  # (its colour table carries over from the clip's frame to the noise)
+    for yuv in (frame.yuv, noise):
+        bgr = cv2.cvtColor(yuv, cv2.COLOR_YUV2BGR_I420)
+        want = np.full((H, W), 7, np.uint8)
+        refine_matte(want, rects, lambda r: bgr[r[1] : r[3], r[0] : r[2]], pitch, keep=keep, keep_grow=grow)
+        got = np.full((H, W), 7, np.uint8)
+        key_i420(got, yuv, W, H, rects, pitch, keep=keep, keep_grow=grow)
+        assert np.array_equal(got, want), np.count_nonzero(got != want)
+        assert 0.1 < np.mean(got == 255) < 0.9
+        # rectangles reaching past the frame are clipped to it
+        assert np.array_equal(key_i420(np.zeros((H, W), np.uint8), yuv, W, H, [(1200, 600, 1300, 800), (-8, -8, 100, 50)], pitch, keep=keep, keep_grow=grow),
+                              key_i420(np.zeros((H, W), np.uint8), yuv, W, H, [(1200, 600, 1280, 720), (0, 0, 100, 50)], pitch, keep=keep, keep_grow=grow))
+    assert np.array_equal(key_i420(np.zeros((H, W), np.uint8), noise, W, H, [], pitch), np.zeros((H, W), np.uint8))
 
 
 @pytest.mark.parametrize("key", [False, "green"])
