@@ -1242,6 +1242,16 @@ def _build(stages_fn, source: VideoSource) -> list[Stage]:
     return made
 
 
+def _load_kernels() -> None:
+    """Start loading the compiled kernels on a background thread (once per
+    process; see :func:`arstream.kernels.warm_up_async`), so that numba's
+    set-up overlaps opening the input and building the stages rather than
+    following them (the detector would start it only once it is made)."""
+    from arstream.kernels import warm_up_async
+
+    warm_up_async()
+
+
 def process(
     input,
     output=None,
@@ -1305,6 +1315,7 @@ def process(
     if threads < 0:
         raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
     single = threads == 1
+    _load_kernels()
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
         an = Analysis(W, H, analysis_width)
@@ -1421,6 +1432,7 @@ def stream(
     mode = parse_rerun(rerun)
     if output is not None:
         _check_output(output, source)
+    _load_kernels()
     with _open(source, format=format, options=options) as src:
         W, H = src.width, src.height
         rt = src.is_live if realtime is None else bool(realtime)

@@ -35,28 +35,10 @@ import numpy as np
 
 from arstream.errors import InputError
 
-__all__ = ["Frame", "VideoSource", "probe", "i420_planes", "i420_region_bgr"]
+__all__ = ["Frame", "VideoSource", "probe", "i420_planes"]
 
 #: Consecutive undecodable packets after which the rest of the file is given up.
 MAX_BAD_PACKETS = 50
-
-
-def i420_region_bgr(yuv: np.ndarray, width: int, height: int, rect) -> np.ndarray:
-    """BGR (h, w, 3) uint8 of the rectangle ``rect`` = (x0, y0, x1, y1) (half-open,
-    even corners) of an I420 frame, without converting the rest of it: OpenCV's
-    I420 conversion of the region's own planes, the same pixels as converting
-    the whole frame and cropping."""
-    x0, y0, x1, y1 = (int(v) for v in rect)
-    if x0 % 2 or y0 % 2 or x1 % 2 or y1 % 2 or not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
-        raise ValueError(f"rect must have even corners inside the {width}x{height} frame, got {rect}")
-    Y, U, V = i420_planes(yuv, width, height)
-    w, h = x1 - x0, y1 - y0
-    buf = np.empty((h * 3 // 2, w), np.uint8)
-    sub = i420_planes(buf, w, h)
-    sub[0][:] = Y[y0:y1, x0:x1]
-    sub[1][:] = U[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
-    sub[2][:] = V[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
-    return cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420)
 
 
 def i420_planes(yuv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -25,7 +25,7 @@ import arstream
 from arstream.cli import main
 from arstream.pipeline import Analysis, GrassKeyI420, Summary, composite_i420
 from arstream.sink import VideoSink, atomic_path, read_jsonl
-from arstream.source import VideoSource, i420_planes, i420_region_bgr
+from arstream.source import VideoSource, i420_planes
 from arstream.synth import generate
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -553,12 +553,3 @@ def test_a_bug_in_a_stage_is_one_line_and_the_outputs_are_finalised(small, tmp_p
     assert n == len(read_jsonl(cams)) == 6  # frames 0-5: the smoother held 6 and 7
     assert not os.path.exists(atomic_path(str(out)))
 
-
-def test_i420_region_matches_the_whole_frame_conversion():
-    rng = np.random.default_rng(3)
-    bgr = cv2.GaussianBlur(rng.integers(0, 255, (72, 128, 3), np.uint8), (9, 9), 3)
-    yuv = cv2.cvtColor(bgr, cv2.COLOR_BGR2YUV_I420)
-    full = cv2.cvtColor(yuv, cv2.COLOR_YUV2BGR_I420)
-    np.testing.assert_array_equal(i420_region_bgr(yuv, 128, 72, (10, 20, 60, 50)), full[20:50, 10:60])
-    with pytest.raises(ValueError, match=r"rect must have even corners inside the 128x72 frame, got \(1, 0, 8, 8\)"):
-        i420_region_bgr(yuv, 128, 72, (1, 0, 8, 8))
