@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 import scipy.optimize
 
-from arstream.kernels import grid_nearest, marking_residuals, point_grid, project_points
+from arstream.kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
 from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
 from geometry.homography import homographies_from_lines
@@ -374,63 +374,14 @@ class LineIndex:
 # ---------------------------------------------------------------------------
 @dataclass
 class LMResult:
-    """Solution of :func:`robust_lm`: parameters, residuals and Jacobian at the solution."""
+    """Solution of :func:`arstream.kernels.refine_pose`: parameters, residuals and
+    Jacobian at the solution, its cost and the steps taken."""
 
     x: np.ndarray
     fun: np.ndarray
     jac: np.ndarray
     cost: float
     iterations: int
-
-
-def robust_lm(fun, jac, x0: np.ndarray, *, f_scale: float = 1.0, max_iter: int = 12, tol: float = 1e-10) -> LMResult:
-    """Levenberg-Marquardt with the soft-L1 loss by iteratively reweighted least squares.
-
-    Minimises ``sum 2 (sqrt(1 + (r_i / s)^2) - 1)`` for residuals ``r = fun(x)``
-    with analytic Jacobian ``jac(x)`` (N, k). Same problem as scipy's
-    ``least_squares(loss="soft_l1")``; written out because for the few
-    parameters of a camera (4-8) and a few hundred residuals, scipy's
-    per-call overhead is most of the per-frame cost in tracking.
-    """
-    s2 = f_scale * f_scale
-
-    def rho(r):
-        return float(np.sum(2.0 * (np.sqrt(1.0 + r * r / s2) - 1.0)))
-
-    x = np.array(x0, dtype=np.float64)
-    r = fun(x)
-    cost = rho(r)
-    lam = 1e-3
-    J = jac(x)
-    it = 0
-    for it in range(1, max_iter + 1):
-        cost_prev = cost
-        w = 1.0 / np.sqrt(1.0 + r * r / s2)
-        A = J.T @ (w[:, None] * J)
-        g = J.T @ (w * r)
-        D = np.diag(np.maximum(np.diag(A), 1e-12))
-        improved = False
-        while lam < 1e8:
-            try:
-                dx = np.linalg.solve(A + lam * D, -g)
-            except np.linalg.LinAlgError:
-                lam *= 10
-                continue
-            xn = x + dx
-            rn = fun(xn)
-            cn = rho(rn)
-            if cn < cost:
-                x, r, cost = xn, rn, cn
-                lam = max(lam * 0.2, 1e-9)
-                improved = True
-                break
-            lam *= 10
-        if not improved:
-            break
-        J = jac(x)
-        if np.linalg.norm(dx) < tol * (np.linalg.norm(x) + tol) or cost_prev - cost < 1e-4 * cost_prev:
-            break
-    return LMResult(x=x, fun=r, jac=J, cost=cost, iterations=it)
 
 
 # ---------------------------------------------------------------------------
@@ -577,14 +528,9 @@ def refine_camera(
     # state: rotation (left perturbation about R_ref, reset every round), centre, log f, k1
     R_ref = cam0.R
     Bw = np.eye(3)  # rotation parameters -> left perturbation (camera frame)
-    C_cur = c0.copy()
+    C_cur = np.array(c0, dtype=np.float64)
     logf = float(np.log(cam0.focal))
     k1_cur = float(k1_0)
-
-    def unpack(th):
-        R = cv2.Rodrigues(Bw @ th[:nr])[0] @ R_ref
-        C = th[3:6] if free else C_cur
-        return R, C, float(np.exp(th[i_f])), (float(th[i_k]) if estimate_k1 else k1_cur)
 
     def theta0():
         th = np.zeros(len(names))
@@ -626,7 +572,7 @@ def refine_camera(
             d = R_ref[2]  # optical axis in the pitch frame
             h = np.cross([0.0, 0.0, 1.0], d)
             Bw = np.column_stack([R_ref @ (h / max(np.linalg.norm(h), 1e-12)), [0.0, 0.0, 1.0]])
-        # the kernel's Jacobian columns (rotation, centre, log f, k1) -> the parameters
+        # the parameters -> the kernel's (rotation, centre, log f, k1), and so its Jacobian's columns
         M = np.zeros((8, len(names)))
         M[:3, :nr] = Bw if fixed_pan else np.eye(3)
         if free:
@@ -634,23 +580,9 @@ def refine_camera(
         M[6, i_f] = 1.0
         if estimate_k1:
             M[7, i_k] = 1.0
-        last = [None, None]  # the parameters of the last evaluation and its Jacobian
-
-        def evaluate(th):
-            R, C, f, k1 = unpack(th)
-            r, G = marking_residuals(X, Q, nrm, np.ascontiguousarray(R), np.ascontiguousarray(C, np.float64), f, pp[0], pp[1], k1)
-            last[0], last[1] = th, G
-            return r
-
-        def jac(th):
-            # (the LM asks for the Jacobian where it last evaluated the residuals)
-            if last[0] is not th and not np.array_equal(last[0], th):
-                evaluate(th)
-            return last[1] @ M
-
-        res_fin = robust_lm(evaluate, jac, theta0(), f_scale=1.0, max_iter=12)
-        R, C_cur, f, k1_cur = unpack(res_fin.x)
-        C_cur = np.array(C_cur, dtype=np.float64)
+        R_ref = np.ascontiguousarray(R_ref, np.float64)
+        res_fin = LMResult(*refine_pose(X, Q, nrm, R_ref, M, theta0(), C_cur, k1_cur, float(pp[0]), float(pp[1]), 1.0, 12, 1e-10))
+        R, C_cur, f, k1_cur = pose_from_params(res_fin.x, R_ref, M, C_cur, k1_cur)
         logf = float(np.log(f))
         cam = camera_of(R, C_cur, f, k1_cur)
     # confidence: support of the in-view model after refinement

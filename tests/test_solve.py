@@ -569,3 +569,101 @@ def test_marking_residuals_and_their_jacobian(k1):
     num = np.column_stack([(residuals(th0 + e) - residuals(th0 - e)) / (2 * e[j]) for j, e in enumerate(np.diag(steps))])
     scale = np.abs(num).max(axis=0)
     assert np.all(np.abs(G - num).max(axis=0) <= 1e-5 * scale + 1e-9)
+
+
+def _pose_maps(R_ref, C):
+    """(name, M, th) of the three parameterisations refine_camera uses: free
+    centre, fixed centre with k1, fixed centre with the pan held (two rotation
+    parameters along Bw)."""
+    rng = np.random.default_rng(11)
+    full = np.zeros((8, 7))
+    full[:3, :3] = np.eye(3)
+    full[3:6, 3:6] = np.eye(3)
+    full[6, 6] = 1.0
+    fixed = np.zeros((8, 5))
+    fixed[:3, :3] = np.eye(3)
+    fixed[6, 3] = fixed[7, 4] = 1.0
+    d = R_ref[2]
+    h = np.cross([0.0, 0.0, 1.0], d)
+    Bw = np.column_stack([R_ref @ (h / np.linalg.norm(h)), [0.0, 0.0, 1.0]])
+    pan = np.zeros((8, 3))
+    pan[:3, :2] = Bw
+    pan[6, 2] = 1.0
+    return [
+        ("free centre", full, np.concatenate([rng.normal(0, 0.01, 3), C + rng.normal(0, 0.5, 3), [np.log(1000.0)]])),
+        ("fixed centre, k1", fixed, np.concatenate([rng.normal(0, 0.01, 3), [np.log(1000.0), -0.05]])),
+        ("pan held", pan, np.concatenate([rng.normal(0, 0.01, 2), [np.log(1000.0)]])),
+    ]
+
+
+def test_pose_from_params_is_the_rodrigues_perturbation():
+    import cv2
+
+    from arstream.kernels import pose_from_params
+
+    C = np.array([2.0, -45.0, 14.0])
+    R_ref = camera_from_ptz(C, PTZ(0.1, 0.35, -0.01, 1000.0), (640.0, 360.0)).R
+    for name, M, th in _pose_maps(R_ref, C):
+        R, Cp, f, k1 = pose_from_params(th, R_ref, M, C + 1.0, 0.02)
+        assert np.allclose(R, cv2.Rodrigues(M[:3] @ th)[0] @ R_ref, rtol=0, atol=1e-14), name
+        assert np.allclose(Cp, M[3:6] @ th if M[3:6].any() else C + 1.0, rtol=0, atol=0), name
+        assert f == pytest.approx(np.exp(M[6] @ th), rel=1e-15) and k1 == (M[7] @ th if M[7].any() else 0.02), name
+    R, _, _, _ = pose_from_params(np.zeros(7), R_ref, _pose_maps(R_ref, C)[0][1], C, 0.0)
+    assert np.array_equal(R, np.eye(3) @ R_ref)  # a zero rotation is exactly the identity
+
+
+@pytest.mark.parametrize("which", [0, 1, 2], ids=["free-centre", "fixed-centre-k1", "pan-held"])
+def test_refine_pose_reaches_the_soft_l1_minimum_scipy_finds(which):
+    # kernels.refine_pose (compiled LM, soft-L1 by reweighting) against
+    # scipy.optimize.least_squares(loss="soft_l1") on the same residuals, with
+    # 15 % gross outliers among the matches and a start a few pixels off
+    import scipy.optimize
+
+    from arstream.kernels import marking_residuals, pose_from_params, refine_pose
+
+    rng = np.random.default_rng(which)
+    C = np.array([2.0, -45.0, 14.0])
+    cam = camera_from_ptz(C, PTZ(0.1, 0.35, -0.01, 1000.0), (640.0, 360.0), dist=(-0.05,))
+    name, M, th_true = _pose_maps(cam.R, C)[which]
+    R_ref = cam.R
+    k1_fixed = -0.05 if which != 1 else 0.0
+    R0, C0, f0, k0 = pose_from_params(th_true, R_ref, M, C, k1_fixed)
+    Xc = (MODEL.points - C0) @ R0.T
+    xn = Xc[:, :2] / Xc[:, 2:3]
+    px = f0 * xn * (1 + k0 * (xn**2).sum(1, keepdims=True)) + [640.0, 360.0]
+    inside = np.flatnonzero((Xc[:, 2] > 1.0) & (np.abs(px - [640.0, 360.0]) < [640.0, 360.0]).all(axis=1))  # in the frame
+    pick = rng.choice(inside, 500, replace=False)
+    X, px = MODEL.points[pick], px[pick]
+    ang = rng.uniform(0, np.pi, len(X))
+    nrm = np.column_stack([np.cos(ang), np.sin(ang)])
+    Q = px - nrm * rng.normal(0, 0.5, (len(X), 1))
+    bad = rng.random(len(X)) < 0.15
+    Q[bad] += nrm[bad] * rng.uniform(5, 30, (bad.sum(), 1))
+    th0 = th_true.copy()
+    th0[:2] += 0.003  # pixels off at f = 1000
+    th0[-1 if which != 1 else 3] += 0.003
+
+    def fun(th):
+        R, Cc, f, k1 = pose_from_params(th, R_ref, M, C, k1_fixed)
+        return marking_residuals(X, Q, nrm, R, Cc, f, 640.0, 360.0, k1)[0]
+
+    def jac(th):
+        R, Cc, f, k1 = pose_from_params(th, R_ref, M, C, k1_fixed)
+        return marking_residuals(X, Q, nrm, R, Cc, f, 640.0, 360.0, k1)[1] @ M
+
+    def pixels(th):
+        R, Cc, f, k1 = pose_from_params(th, R_ref, M, C, k1_fixed)
+        xc = (X - Cc) @ R.T
+        u = xc[:, :2] / xc[:, 2:3]
+        return f * u * (1 + k1 * (u**2).sum(1, keepdims=True))
+
+    x, r, J, cost, steps = refine_pose(X, Q, nrm, R_ref, M, th0, C, k1_fixed, 640.0, 360.0, 1.0, 50, 1e-12)
+    ref = scipy.optimize.least_squares(fun, th0, jac=jac, loss="soft_l1", f_scale=1.0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    assert np.allclose(r, fun(x), rtol=0, atol=1e-12) and np.allclose(J, jac(x), rtol=0, atol=1e-9)  # returned at its solution
+    # it stops once a step gains less than 1e-4 of the cost (scipy's cost is half the sum of
+    # rho), which leaves it within a fraction of a pixel of scipy's solution along the flat
+    # directions of the problem (a free centre against the focal length)
+    assert cost <= 2 * ref.cost * (1 + 1e-4), name
+    assert np.abs(pixels(x) - pixels(ref.x)).max() < 0.25, name
+    assert np.abs(pixels(th0) - pixels(ref.x)).max() > 3.0  # (from a start pixels away)
+    assert 1 <= steps <= 50
