@@ -1782,6 +1782,7 @@ def warm_up() -> None:
     project_points(P3, I3, np.zeros(3), I3, np.zeros(0), 2, 2, 0.0, 0.5)
     marking_residuals(P3, p, p, I3, np.zeros(3), 1.0, 0.0, 0.0, 0.0)
     refine_pose(P3 + [0.0, 0.0, 1.0], p, p + [1.0, 0.0], I3, np.eye(8, 4), np.zeros(4), np.zeros(3), 0.0, 0.0, 0.0, 1.0, 12, 1e-10)
+    pose_from_params(np.zeros(4), I3, np.eye(8, 4), np.zeros(3), 0.0)  # (also called on its own, not only inside refine_pose)
     warm_up_compositor()
 
 

@@ -496,7 +496,8 @@ def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly
-    # the signatures detection and tracking call, so that nothing compiles mid-clip
+    # the signatures detection, tracking and keying call, so that nothing
+    # compiles mid-clip
     from arstream import kernels
 
     kernels.warm_up()
@@ -515,6 +516,17 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     from arstream.solve import LineIndex
 
     LineIndex(d.line_points).nearest(d.line_points[:50] + 1.0, 4.0)
+    # the tracker's refinements (tripod, with the pan held, full pose) and the fine key
+    import cv2
+
+    from arstream.pipeline import GrassKeyI420
+    from arstream.solve import ModelSamples, refine_camera
+
+    cam, model, index = clip.camera(160), ModelSamples.from_pitch(), LineIndex(d.line_points)
+    for kw in ({"center": cam.center, "estimate_k1": True}, {"center": cam.center, "fixed_pan": True}, {}):
+        refine_camera(cam, index, (640, 360), model, radii=(4.0,), **kw)
+    yuv = cv2.cvtColor(clip.render(160), cv2.COLOR_BGR2YUV_I420)
+    GrassKeyI420()(np.zeros((360, 640), np.uint8), yuv, 640, 360, [(0, 100, 640, 360)], d.grass_small, keep=d.line_small, keep_grow=2)
     after = {n: len(getattr(kernels, n).signatures) for n in names}
     assert after == before
 
