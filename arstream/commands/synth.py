@@ -17,7 +17,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def register(subparsers) -> None:
-    from arstream.synth import PRESETS
+    from arstream.presets import PRESETS
 
     presets = "\n".join(f"  {name:8s} {p.description}" for name, p in PRESETS.items())
     p = subparsers.add_parser(
