@@ -83,7 +83,6 @@ def ridge_points(
         bufs.clear()
         bufs["shape"] = (h, w)
         bufs["tophat"] = np.empty((h, w), np.uint8)
-        bufs["f32"] = np.empty((h, w), np.float32)
         bufs["blur"] = np.empty((h, w), np.float32)
         bufs["cand"] = np.zeros((h, -(-w // 8) * 8), np.uint8)  # rows padded to 8-byte words
     key = ("se", kernel)
@@ -91,11 +90,14 @@ def ridge_points(
     if se is None:
         se = bufs[key] = cv2.getStructuringElement(cv2.MORPH_RECT, (kernel, kernel))
     th = cv2.morphologyEx(gray, cv2.MORPH_TOPHAT, se, dst=bufs["tophat"])
-    f = bufs["f32"]
-    f[:] = gray
-    k = int(2 * np.ceil(3 * sigma) + 1)
-    # (always made: the detector centres the squashed pass's bands on the fine one's)
-    B = cv2.GaussianBlur(f, (k, k), sigma, dst=bufs["blur"], borderType=cv2.BORDER_REPLICATE)
+    key = ("gauss", sigma)
+    g1 = bufs.get(key)
+    if g1 is None:
+        g1 = bufs[key] = cv2.getGaussianKernel(int(2 * np.ceil(3 * sigma) + 1), sigma, cv2.CV_32F)
+    # the Gaussian of the luma in float, straight from uint8 (the same values as
+    # GaussianBlur of a float copy, without the copy); always made: the detector
+    # centres the squashed pass's bands on the fine one's
+    B = cv2.sepFilter2D(gray, cv2.CV_32F, g1, g1, dst=bufs["blur"], borderType=cv2.BORDER_REPLICATE)
     # candidates: top-hat above 0.9 of the contrast, in the region (OpenCV), then those
     # that are a maximum across x or y, and their centres: one compiled loop
     # (kernels.ridge_scan, which skips 8 pixels without a candidate at a time)
