@@ -568,13 +568,22 @@ def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, r
     """
     from arstream.kernels import composite_i420 as blend  # (numba: loaded when a RenderStage is made)
 
-    r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
-    r[:, :2] = np.maximum(r[:, :2] & ~1, 0)  # outward to even pixels, inside the frame
-    r[:, 2] = np.minimum((r[:, 2] + 1) & ~1, width)
-    r[:, 3] = np.minimum((r[:, 3] + 1) & ~1, height)
-    r = r[(r[:, 2] > r[:, 0]) & (r[:, 3] > r[:, 1])]
+    r = _rect_array(rects, width, height, even=True)
     if len(r):
         blend(yuv.reshape(-1), int(width), int(height), np.ascontiguousarray(bgra), r, *_BGRA_TO_YUV)
+
+
+def _rect_array(rects, width: int, height: int, *, even: bool = False) -> np.ndarray:
+    """Rectangles (x0, y0, x1, y1) as an (R, 4) int64 array for the compiled I420
+    passes: clipped to the frame (``even``: first grown outward to even pixels,
+    as 4:2:0 chroma needs), the empty ones dropped."""
+    r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
+    if even:
+        r[:, :2] &= ~1
+        r[:, 2:] = (r[:, 2:] + 1) & ~1
+    r[:, [0, 2]] = np.clip(r[:, [0, 2]], 0, width)
+    r[:, [1, 3]] = np.clip(r[:, [1, 3]], 0, height)
+    return r[(r[:, 2] > r[:, 0]) & (r[:, 3] > r[:, 1])]
 
 
 class GrassKeyI420:
@@ -615,9 +624,7 @@ class GrassKeyI420:
         """
         from arstream.kernels import key_i420  # (numba: loaded when a RenderStage is made)
 
-        r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
-        r[:, [0, 2]] = np.clip(r[:, [0, 2]], 0, width)
-        r[:, [1, 3]] = np.clip(r[:, [1, 3]], 0, height)
+        r = _rect_array(rects, width, height)
         half = self._se.get(keep_grow)
         if half is None:
             if keep_grow > 0:
