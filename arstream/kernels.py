@@ -30,7 +30,7 @@ import threading
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "direct_fit", "direct_fits", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "key_i420", "marking_residuals", "perimeter_bins", "point_grid", "pose_from_params", "project_points", "refine_conic", "refine_pose", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "cut_by_line", "direct_fit", "direct_fits", "ellipse_params", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "key_i420", "marking_residuals", "mask_at", "perimeter_bins", "point_grid", "pose_from_params", "project_points", "refine_conic", "refine_pose", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
 
@@ -692,6 +692,33 @@ def beside_grass(pts, nrm, d, mask, fx, fy):
 
 
 @nb.njit(**_JIT)
+def mask_at(pts, mask, fx, fy, xmax, ymax):
+    """Which points lie in ``[0, xmax] x [0, ymax]`` on a non-zero cell of
+    ``mask`` (a small image), the points scaled by (``fx``, ``fy``) to its
+    cells (truncated, clamped).
+
+    Parameters
+    ----------
+    pts : (N, 2) float64 points
+    mask : (mh, mw) uint8
+    fx, fy : float, mask cells per unit of x and y
+    xmax, ymax : float, the points' extent
+
+    Returns
+    -------
+    (N,) bool
+    """
+    mh, mw = mask.shape
+    n = pts.shape[0]
+    out = np.zeros(n, np.bool_)
+    for i in range(n):
+        x, y = pts[i, 0], pts[i, 1]
+        if 0.0 <= x <= xmax and 0.0 <= y <= ymax:
+            out[i] = mask[_cell(y, fy, False, mh), _cell(x, fx, False, mw)] > 0
+    return out
+
+
+@nb.njit(**_JIT)
 def _counting_sort(keys, n_keys):
     """Indices 0..N-1 sorted by ``keys`` (N,) int64 in [0, n_keys), stable:
     (order (N,), starts (n_keys + 1,)); key k's indices are order[starts[k]:starts[k + 1]]."""
@@ -707,6 +734,50 @@ def _counting_sort(keys, n_keys):
         order[fill[keys[i]]] = i
         fill[keys[i]] += 1
     return order, starts
+
+
+@nb.njit(**_JIT)
+def cut_by_line(P, L, cx, cy, a, b, angle, min_share):
+    """Whether a line of ``L`` cuts an ellipse with (nearly) all of its support
+    beyond the line, on the side away from the ellipse's centre.
+
+    A line cuts the ellipse "away from its centre" when its distance from the
+    centre is between 0.2 and 0.95 of the ellipse's half-width along the
+    line's normal (the support function ``sqrt((a n_u)^2 + (b n_v)^2)``, with
+    ``(n_u, n_v)`` the normal in the ellipse's axes).
+
+    Parameters
+    ----------
+    P : (N, 2) float64 support points (pixels)
+    L : (K, 3) float64 lines with unit normals ``(a, b)`` (``a x + b y + c = 0``)
+    cx, cy, a, b, angle : the ellipse (centre, semi-axes, major-axis angle)
+    min_share : float, the share of ``P`` that must lie on the far side
+
+    Returns
+    -------
+    bool: for some cutting line, more than ``min_share`` of ``P`` lies on it
+    or beyond it (not on the centre's side)
+    """
+    ca, sa = math.cos(angle), math.sin(angle)
+    n = P.shape[0]
+    for k in range(L.shape[0]):
+        nx, ny, c = L[k, 0], L[k, 1], L[k, 2]
+        dc = nx * cx + ny * cy + c
+        nu = nx * ca + ny * sa
+        nv = ny * ca - nx * sa
+        reach = math.sqrt((a * nu) ** 2 + (b * nv) ** 2)
+        if not (abs(dc) < 0.95 * reach and abs(dc) >= 0.2 * reach):
+            continue
+        sc = 1.0 if dc > 0 else (-1.0 if dc < 0 else 0.0)
+        far = 0
+        for i in range(n):
+            sd = nx * P[i, 0] + ny * P[i, 1] + c
+            ss = 1.0 if sd > 0 else (-1.0 if sd < 0 else 0.0)
+            if ss != sc:
+                far += 1
+        if n > 0 and far / n > min_share:
+            return True
+    return False
 
 
 @nb.njit(**_JIT)
@@ -963,6 +1034,61 @@ def direct_fit(S):
         coef[i] = a1[i]
         coef[3 + i] = T[i, 0] * a1[0] + T[i, 1] * a1[1] + T[i, 2] * a1[2]
     return coef, True
+
+
+@nb.njit(**_JIT)
+def ellipse_params(coef, s, mx, my):
+    """Semi-axes and major-axis angles of conics in normalised coordinates
+    ``q = s (p - m)``, in pixels ``p``: the hypotheses' screen of the ellipse
+    search, one pass instead of dozens of small numpy operations.
+
+    Parameters
+    ----------
+    coef : (K, 6) float64 conics ``[A, B, C, D, E, F]`` in ``q``
+    s, mx, my : float, the normalisation ``q = s (p - (mx, my))``
+
+    Returns
+    -------
+    a, b : (K,) semi-axes in pixels, ``a >= b`` (1 where not an ellipse)
+    angle : (K,) major-axis angle in [-pi/2, pi/2)
+    ok : (K,) bool, a real ellipse with finite axes (False for a zero or NaN row)
+    """
+    k = coef.shape[0]
+    a_out, b_out, ang_out = np.ones(k), np.ones(k), np.empty(k)
+    ok_out = np.zeros(k, np.bool_)
+    for i in range(k):
+        A, B, C, D, E, F = coef[i, 0], coef[i, 1], coef[i, 2], coef[i, 3], coef[i, 4], coef[i, 5]
+        # the conic in pixels, unit norm
+        A2, B2, C2 = A * s * s, B * s * s, C * s * s
+        D2 = D * s - 2 * A2 * mx - B2 * my
+        E2 = E * s - 2 * C2 * my - B2 * mx
+        F2 = A2 * mx * mx + B2 * mx * my + C2 * my * my - D * s * mx - E * s * my + F
+        nn = math.sqrt(A2 * A2 + B2 * B2 + C2 * C2 + D2 * D2 + E2 * E2 + F2 * F2)
+        if not nn > 0.0:  # a zero or NaN row (a failed fit): no ellipse
+            ang_out[i] = math.nan
+            continue
+        A, B, C, D, E, F = A2 / nn, B2 / nn, C2 / nn, D2 / nn, E2 / nn, F2 / nn
+        # centre, value there, eigenvalues of [[A, B/2], [B/2, C]]
+        det = 4 * A * C - B * B
+        ok = det > 1e-300
+        if not ok:
+            det = 1.0
+        xc = (B * E - 2 * C * D) / det
+        yc = (B * D - 2 * A * E) / det
+        f0 = F + 0.5 * (D * xc + E * yc)
+        half = 0.5 * (A + C)
+        root = math.sqrt(0.25 * (A - C) * (A - C) + 0.25 * B * B)
+        sgn = 1.0 if half > 0 else -1.0  # make the quadratic part positive definite
+        l1, l2, f0 = (half - root) * sgn, (half + root) * sgn, f0 * sgn
+        l_small, l_big = (l1, l2) if l1 <= l2 else (l2, l1)
+        ok = ok and l_small > 0 and f0 < 0
+        if ok:
+            a_out[i] = math.sqrt(-f0 / l_small)
+            b_out[i] = math.sqrt(-f0 / l_big)
+        ang = 0.5 * math.atan2(B * sgn, (A - C) * sgn) + 0.5 * math.pi
+        ang_out[i] = (ang + 0.5 * math.pi) % math.pi - 0.5 * math.pi  # the major axis: eigenvector of l_small
+        ok_out[i] = ok and math.isfinite(a_out[i]) and math.isfinite(b_out[i])
+    return a_out, b_out, ang_out, ok_out
 
 
 @nb.njit(**_JIT)
@@ -1767,6 +1893,7 @@ def warm_up() -> None:
     conic_band(np.ones(6), p, p, z, 1.0, 0.0, False)
     direct_fit(np.eye(6))
     direct_fits(np.eye(6)[None].copy())
+    ellipse_params(np.ones((1, 6)), 1.0, 0.0, 0.0)
     conic_counts(np.ones((1, 6)), p, p, z, 1.0, 0.95)
     refine_conic(np.ones(6), p, p, z, 1.0, 1.5, 2.25)
     perimeter_bins(p, 0.0, 0.0, 0.0, 2.0, 1.0, 64, 0.3, 1.0)
@@ -1775,6 +1902,8 @@ def warm_up() -> None:
     grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
+    cut_by_line(p, np.ones((1, 3)), 0.0, 0.0, 2.0, 1.0, 0.0, 0.95)
+    mask_at(p, th, 1.0, 1.0, 1.0, 1.0)
     component_stats(np.zeros((2, 2), np.int32), 1)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from geometry.lines import hartley_normalization
+from geometry.lines import eigh_sym2, hartley_normalization
 
 __all__ = [
     "Ellipse",
@@ -259,19 +259,20 @@ def ellipse_from_conic(C) -> Ellipse:
         an imaginary ellipse or a degenerate conic).
     """
     C = normalize_conic(C)
-    w, V = np.linalg.eigh(C[:2, :2])  # ascending: w[0] smallest -> major axis
-    w0, w1 = float(w[0]), float(w[1])
+    # on plain floats (this runs for every ellipse hypothesis the detector validates)
+    (p, q, d), (_, r, e), (_, _, f) = C.tolist()
+    w0, w1, vx, vy = eigh_sym2(p, q, r)  # w0 smallest -> major axis along (vx, vy)
     if w1 <= 0 or w0 <= 1e-13 * w1:
         raise ValueError("conic is not an ellipse (hyperbola, parabola or degenerate)")
-    cx, cy = np.linalg.solve(C[:2, :2], -C[:2, 2]).tolist()
-    # the rest on plain floats (this runs for every ellipse hypothesis the detector validates)
-    d, e, f = C[2].tolist()
+    det = p * r - q * q  # > 0 here (both eigenvalues positive)
+    cx = (q * e - r * d) / det  # the centre: [[p, q], [q, r]] c = -(d, e)
+    cy = (q * d - p * e) / det
     f0 = f + (d * cx + e * cy)  # value at the centre
     if f0 >= -1e-15:
         raise ValueError("conic is an imaginary or degenerate (point) ellipse")
     a = math.sqrt(-f0 / w0)
     b = math.sqrt(-f0 / w1)
-    angle = math.atan2(float(V[1, 0]), float(V[0, 0]))
+    angle = math.atan2(vy, vx)  # (Ellipse wraps the axis's direction to (-pi/2, pi/2])
     return Ellipse(center=(cx, cy), axes=(a, b), angle=angle)
 
 

@@ -609,6 +609,103 @@ def test_compiled_direct_fit_matches_the_geometry_core():
         assert not ok and np.isnan(coef).all()
 
 
+
+def test_compiled_ellipse_screen_matches_numpy():
+    # kernels.ellipse_params (the ellipse search's screen of its hypotheses: the
+    # conics of normalised coordinates in pixels, then their axes and angles)
+    # against the same formulas in numpy, digit for digit, and against
+    # geometry.conics.ellipse_from_conic on real ellipses
+    from arstream import kernels
+    from geometry.conics import conic_from_ellipse, ellipse_from_conic
+
+    rng = np.random.default_rng(4)
+    s, m = 0.01, np.array([320.0, 180.0])
+    Tn = np.array([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
+    Ti = np.linalg.inv(Tn)
+    coefs, truth = [], []
+    for _ in range(300):
+        e = Ellipse(tuple(rng.uniform(0, 640, 2)), (rng.uniform(20, 300), rng.uniform(5, 19)), rng.uniform(-1.5, 1.5))
+        Cq = Ti.T @ conic_from_ellipse(e) @ Ti  # the conic in q = s (p - m)
+        c = np.array([Cq[0, 0], 2 * Cq[0, 1], Cq[1, 1], 2 * Cq[0, 2], 2 * Cq[1, 2], Cq[2, 2]])
+        coefs.append(c * rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 10))
+        truth.append(e)
+    coefs += [np.array([1.0, 0.0, -1.0, 0.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0, 0.0, 0.0, 1.0]), np.zeros(6), np.full(6, np.nan)]  # hyperbola, imaginary, zero, NaN
+    coef = np.array(coefs)
+    a, b, ang, ok = kernels.ellipse_params(coef, s, m[0], m[1])
+
+    # numpy: the conics in pixels, unit norm, then their parameters
+    with np.errstate(invalid="ignore", divide="ignore"):
+        A, B, C, D, E, F = coef.T
+        A2, B2, C2 = A * s * s, B * s * s, C * s * s
+        D2 = D * s - 2 * A2 * m[0] - B2 * m[1]
+        E2 = E * s - 2 * C2 * m[1] - B2 * m[0]
+        F2 = A2 * m[0] * m[0] + B2 * m[0] * m[1] + C2 * m[1] * m[1] - D * s * m[0] - E * s * m[1] + F
+        P = np.column_stack([A2, B2, C2, D2, E2, F2])
+        A, B, C, D, E, F = (P / np.linalg.norm(P, axis=1, keepdims=True)).T
+        det = 4 * A * C - B * B
+        ok_ref = det > 1e-300
+        det = np.where(ok_ref, det, 1.0)
+        xc, yc = (B * E - 2 * C * D) / det, (B * D - 2 * A * E) / det
+        f0 = F + 0.5 * (D * xc + E * yc)
+        half, root = 0.5 * (A + C), np.sqrt(0.25 * (A - C) ** 2 + 0.25 * B * B)
+        sgn = np.where(half > 0, 1.0, -1.0)
+        l1, l2, f0 = (half - root) * sgn, (half + root) * sgn, f0 * sgn
+        ok_ref &= (np.minimum(l1, l2) > 0) & (f0 < 0)
+        a_ref = np.where(ok_ref, np.sqrt(-f0 / np.minimum(l1, l2)), 1.0)
+        b_ref = np.where(ok_ref, np.sqrt(-f0 / np.maximum(l1, l2)), 1.0)
+        ang_ref = (0.5 * np.arctan2(B * sgn, (A - C) * sgn) + np.pi) % np.pi - 0.5 * np.pi
+    np.testing.assert_array_equal(ok, ok_ref & np.isfinite(a_ref) & np.isfinite(b_ref))
+    np.testing.assert_array_equal(a[ok], a_ref[ok])
+    np.testing.assert_array_equal(b[ok], b_ref[ok])
+    np.testing.assert_allclose(ang[ok], ang_ref[ok], rtol=0, atol=1e-15)
+    assert ok[:300].all() and not ok[300:].any()
+    for k, e in enumerate(truth):
+        g = ellipse_from_conic(conic_from_ellipse(e))
+        assert abs(a[k] - e.axes[0]) < 1e-9 * e.axes[0] and abs(b[k] - e.axes[1]) < 1e-9 * e.axes[0]
+        assert abs(np.sin(ang[k] - g.angle)) < 1e-9
+
+
+def test_compiled_cut_and_visibility_tests_match_numpy():
+    # kernels.cut_by_line (is an arc cut off by a straight line, with its support
+    # beyond it: a penalty arc) and kernels.mask_at (the ellipse search's
+    # "visible" test) against numpy formulas, on random ellipses, lines and masks
+    from arstream import kernels
+
+    rng = np.random.default_rng(9)
+    hits = 0
+    for trial in range(400):
+        cx, cy, a, b, ang = *rng.uniform(100, 500, 2), rng.uniform(50, 200), rng.uniform(10, 49), rng.uniform(-1, 1)
+        th = rng.uniform(0, np.pi, rng.integers(1, 6))
+        n = np.column_stack([np.cos(th), np.sin(th)])
+        ca, sa = np.cos(ang), np.sin(ang)
+        reach = np.hypot(a * (n[:, 0] * ca + n[:, 1] * sa), b * (n[:, 1] * ca - n[:, 0] * sa))
+        dc = rng.choice([-1.0, 1.0], len(th)) * rng.uniform(0.0, 1.2, len(th)) * reach  # centre's distance from each line
+        L = np.column_stack([n, dc - n @ [cx, cy]])
+        # support on the ellipse; on odd trials only (or mostly) beyond the first line
+        t = rng.uniform(0, 2 * np.pi, 400)
+        x, y = a * np.cos(t), b * np.sin(t)
+        P = np.column_stack([cx + x * ca - y * sa, cy + x * sa + y * ca])
+        if trial % 2:
+            beyond = np.sign(P @ n[0] + L[0, 2]) != np.sign(dc[0])
+            P = np.vstack([P[beyond], P[~beyond][: rng.integers(1, 3)]])[: rng.integers(1, 60)]
+        else:
+            P = P[: rng.integers(1, 60)]
+        # numpy: lines cutting the ellipse away from its centre, with > 95 % of the support beyond
+        cut = (np.abs(dc) < 0.95 * reach) & (np.abs(dc) >= 0.2 * reach)
+        ref = bool(cut.any() and (np.mean(np.sign(P @ n[cut].T + L[cut, 2]) != np.sign(dc[cut]), axis=0) > 0.95).any())
+        assert kernels.cut_by_line(np.ascontiguousarray(P), np.ascontiguousarray(L), cx, cy, a, b, ang, 0.95) is ref
+        hits += ref
+    assert 20 < hits < 380  # both answers occur
+
+    mask = (rng.random((90, 160)) > 0.5).astype(np.uint8) * 255
+    W, H = 1280, 720
+    p = np.vstack([rng.uniform(-50, [W + 50, H + 50], (2000, 2)), [[0, 0], [W - 1, H - 1], [W - 0.5, 3], [np.nan, 5]]])
+    fx, fy = 160 / W, 90 / H
+    ok = (p[:, 0] >= 0) & (p[:, 0] <= W - 1) & (p[:, 1] >= 0) & (p[:, 1] <= H - 1)
+    ref = np.zeros(len(p), bool)
+    ref[ok] = mask[np.clip((p[ok, 1] * fy).astype(int), 0, 89), np.clip((p[ok, 0] * fx).astype(int), 0, 159)] > 0
+    np.testing.assert_array_equal(kernels.mask_at(p, mask, fx, fy, W - 1.0, H - 1.0), ref)
+
 def test_component_stats_are_opencvs():
     from arstream import kernels
 

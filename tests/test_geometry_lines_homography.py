@@ -38,6 +38,29 @@ def test_fit_line_exact_and_weighted(seed):
     assert 0.05 < nf.normal_sigma < 0.3 and nf.angle_sigma < 0.01
 
 
+
+def test_eigh_sym2_matches_lapack():
+    # the closed-form 2x2 symmetric eigen-decomposition (fit_line and
+    # ellipse_from_conic use it) against numpy's LAPACK on random, diagonal,
+    # isotropic, near-singular and badly scaled matrices
+    rng = np.random.default_rng(5)
+    cases = [np.eye(2), 3.0 * np.eye(2), np.diag([2.0, -1.0]), np.diag([-1.0, 2.0]), np.zeros((2, 2)), np.array([[1e4, 1e4 - 1e-3], [1e4 - 1e-3, 1e4]])]
+    for k in range(3000):
+        A = rng.normal(size=(2, 2)) * 10.0 ** rng.uniform(-8, 8)
+        cases.append(A @ A.T if k % 2 else A + A.T)
+    for S in cases:
+        w, V = np.linalg.eigh(S)
+        w0, w1, vx, vy = gl.eigh_sym2(S[0, 0], S[0, 1], S[1, 1])
+        scale = max(np.abs(w).max(), 1e-300)
+        assert w0 <= w1
+        assert abs(w0 - w[0]) <= 4e-16 * scale and abs(w1 - w[1]) <= 4e-16 * scale, (S, w, w0, w1)
+        v = np.array([vx, vy])
+        assert abs(np.hypot(vx, vy) - 1.0) < 1e-15
+        assert np.linalg.norm(S @ v - w0 * v) <= 4e-16 * scale  # an eigenvector of w0
+        u = np.array([-vy, vx])
+        assert np.linalg.norm(S @ u - w1 * u) <= 4e-16 * scale  # and its perpendicular one of w1
+    assert gl.eigh_sym2(2.0, 0.0, 2.0) == (2.0, 2.0, 1.0, 0.0)  # isotropic: (1, 0)
+
 def test_line_through_and_intersect():
     p, q, r = np.array([1.0, 2.0, 1.0]), np.array([4.0, -1.0, 1.0]), np.array([0.0, 5.0, 1.0])
     l1 = gl.line_through(p, q)

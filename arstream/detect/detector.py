@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from arstream.imaging import shrink
-from arstream.kernels import beside_grass, chains, grid_clear, warm_up_async
+from arstream.kernels import beside_grass, chains, cut_by_line, grid_clear, mask_at, warm_up_async
 from geometry.lines import fit_line
 
 from .ellipses import find_ellipses
@@ -362,12 +362,7 @@ class Detector:
 
         def visible(p):
             """Frame pixels (N, 2) where a marking could be seen: in the frame, on the pitch."""
-            xi = (p[:, 0] * fx).astype(np.intp)
-            yi = (p[:, 1] * fy).astype(np.intp)
-            ok = (p[:, 0] >= 0) & (p[:, 0] <= W - 1) & (p[:, 1] >= 0) & (p[:, 1] <= H - 1)
-            out = np.zeros(len(p), bool)
-            out[ok] = gf[np.clip(yi[ok], 0, th_ - 1), np.clip(xi[ok], 0, tw_ - 1)] > 0
-            return out
+            return mask_at(np.ascontiguousarray(p, np.float64), gf, fx, fy, float(W - 1), float(H - 1))
 
         L = np.array([dl.line for dl in lines[:12]]).reshape(-1, 3)
 
@@ -412,23 +407,12 @@ def _cut_by_line(e, P: np.ndarray, L: np.ndarray) -> bool:
     """Whether a straight line (a row of ``L`` (K, 3), unit normals) cuts the
     ellipse with all the support ``P`` (N, 2) on its side away from the
     ellipse's centre: a penalty arc beyond the penalty area's front line (the
-    halfway line, through the centre circle's middle, is no such line)."""
+    halfway line, through the centre circle's middle, is no such line).
+    One compiled loop (:func:`arstream.kernels.cut_by_line`)."""
     if not len(L):
         return False
-    a, b = e.axes
-    ca, sa = math.cos(e.angle), math.sin(e.angle)
-    n = L[:, :2]
-    dc = n @ np.asarray(e.center) + L[:, 2]
-    # the support function of the ellipse: its half-width along each line's normal
-    nu = n[:, 0] * ca + n[:, 1] * sa
-    nv = n[:, 1] * ca - n[:, 0] * sa
-    reach = np.sqrt((a * nu) ** 2 + (b * nv) ** 2)
-    # lines that cut the ellipse, away from its centre
-    cut = (np.abs(dc) < 0.95 * reach) & (np.abs(dc) >= 0.2 * reach)
-    if not cut.any():
-        return False
-    side = P @ n[cut].T + L[cut, 2]
-    return bool((np.mean(np.sign(side) != np.sign(dc[cut]), axis=0) > 0.95).any())
+    (cx, cy), (a, b) = e.center, e.axes
+    return bool(cut_by_line(np.ascontiguousarray(P, np.float64), L, cx, cy, a, b, e.angle, 0.95))
 
 
 def detect(image: np.ndarray, **options) -> Detections:

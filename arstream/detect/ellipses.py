@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from arstream.kernels import chains, conic_band, conic_counts, direct_fits, perimeter_bins, refine_conic
+from arstream.kernels import chains, conic_band, conic_counts, direct_fits, ellipse_params, perimeter_bins, refine_conic
 from geometry.conics import Ellipse, ellipse_from_conic
 
 __all__ = ["EllipseCandidate", "find_ellipses"]
@@ -89,33 +89,6 @@ def largest_gap(pts: np.ndarray, e: Ellipse, *, bins: int = 36) -> float:
     idx = np.flatnonzero(r)
     gaps = np.diff(np.r_[idx, bins]) - 1
     return float(gaps.max()) / bins
-
-
-def _params(coef: np.ndarray):
-    """Ellipse parameters of conics (K, 6) [A, B, C, D, E, F]: centre (K, 2), semi-axes
-    a >= b (K,), major-axis angle (K,), and a (K,) bool for real ellipses."""
-    A, B, C, D, E, F = coef.T
-    det = 4 * A * C - B * B
-    ok = det > 1e-300
-    det = np.where(ok, det, 1.0)
-    xc = (B * E - 2 * C * D) / det
-    yc = (B * D - 2 * A * E) / det
-    f0 = F + 0.5 * (D * xc + E * yc)
-    half = 0.5 * (A + C)
-    root = np.sqrt(0.25 * (A - C) ** 2 + 0.25 * B * B)
-    l1, l2 = half - root, half + root  # eigenvalues of [[A, B/2], [B/2, C]]
-    sgn = np.where(half > 0, 1.0, -1.0)  # make the quadratic part positive definite
-    l1, l2, f0 = l1 * sgn, l2 * sgn, f0 * sgn
-    l_small = np.minimum(l1, l2)
-    l_big = np.maximum(l1, l2)
-    ok &= (l_small > 0) & (f0 < 0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        a = np.sqrt(np.where(ok, -f0 / np.where(ok, l_small, 1.0), 1.0))
-        b = np.sqrt(np.where(ok, -f0 / np.where(ok, l_big, 1.0), 1.0))
-    # major axis: eigenvector of the smaller eigenvalue
-    ang = 0.5 * np.arctan2(B * sgn, (A - C) * sgn) + 0.5 * np.pi
-    ang = (ang + 0.5 * np.pi) % np.pi - 0.5 * np.pi
-    return np.column_stack([xc, yc]), a, b, ang, ok & np.isfinite(a) & np.isfinite(b)
 
 
 def find_ellipses(
@@ -212,7 +185,8 @@ def find_ellipses(
     Dall = _monomials(q)
     free = np.ones(n, bool)
     out: list[EllipseCandidate] = []
-    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw, Tfq)
+    rms_scale = float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))  # working -> frame pixels, for distances
+    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw, Tfq, rms_scale)
     priors = [np.asarray(C, float) for C in (prior or ())]
     for _round in range(max_ellipses):
         accepted = None
@@ -283,10 +257,10 @@ def _search(free, labels, nlab, n_cc, Dall, ctx, *, first):
 def _try(S, fidx, ctx):
     """Fit, screen, score and refine a stack of hypotheses (scatter matrices
     (K, 6, 6)); the first that validates, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq = ctx
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq, _ = ctx
     coef, valid = direct_fits(np.ascontiguousarray(S, np.float64))
     # plausibility in working pixels before any scoring
-    cen, a, b, ang, ok = _params(_coefs_to_pixels(coef, s, m))
+    a, b, ang, ok = ellipse_params(coef, float(s), float(m[0]), float(m[1]))
     valid &= ok & (a > 0.05 * w) & (a < 1.5 * w) & (b > 0.012 * w) & (b < 0.85 * a) & (b > 0.05 * a) & (np.abs(ang) < np.radians(30))
     if not valid.any():
         return None
@@ -311,7 +285,7 @@ def _try(S, fidx, ctx):
 def _accept(coef0, fidx, ctx, *, first_band=None):
     """Refine a hypothesis (normalised coefficients (6,)) on the free points
     ``fidx`` and validate it in frame pixels: an EllipseCandidate, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq = ctx
+    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq, rms_scale = ctx
     cand = _refine(coef0, q, nrm, fidx, s, tol, first_band)
     if cand is None:
         return None
@@ -324,7 +298,7 @@ def _accept(coef0, fidx, ctx, *, first_band=None):
     except ValueError:
         return None
     P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
-    rms = rms_w * float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))
+    rms = rms_w * rms_scale
     ok, cov, sc, kind = _validate(
         ell, P_full, rms, size, visible, is_arc, s_full=sw, min_points=min_points, min_coverage=min_coverage, min_visible=min_visible, max_rms=max_rms
     )
@@ -334,18 +308,6 @@ def _accept(coef0, fidx, ctx, *, first_band=None):
 def _coef_to_matrix(c: np.ndarray) -> np.ndarray:
     A, B, C, D, E, F = c
     return np.array([[A, B / 2, D / 2], [B / 2, C, E / 2], [D / 2, E / 2, F]])
-
-
-def _coefs_to_pixels(coef: np.ndarray, s: float, m: np.ndarray) -> np.ndarray:
-    """Conic coefficients (K, 6) in normalised coordinates q = s (p - m) -> in pixels p."""
-    A, B, C, D, E, F = coef.T
-    mx, my = m
-    A2, B2, C2 = A * s * s, B * s * s, C * s * s
-    D2 = D * s - 2 * A2 * mx - B2 * my
-    E2 = E * s - 2 * C2 * my - B2 * mx
-    F2 = A2 * mx * mx + B2 * mx * my + C2 * my * my - D * s * mx - E * s * my + F
-    out = np.column_stack([A2, B2, C2, D2, E2, F2])
-    return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
 def _conic_to_coef(C: np.ndarray) -> np.ndarray:
