@@ -1917,8 +1917,9 @@ def warm_up() -> None:
 
 def warm_up_compositor() -> None:
     """Load (or compile) the render stage's kernels alone (:func:`composite_i420`,
-    :func:`key_i420`): what drawing with known cameras needs (``arstream
-    render``), without the detector's kernels."""
+    :func:`key_i420`, and the renderer's own, :mod:`render.kernels`): what
+    drawing with known cameras needs (``arstream render``), without the
+    detector's kernels."""
     k4 = np.zeros(4)
     yuv = np.zeros(6, np.uint8)
     rect = np.zeros((1, 4), np.int64)
@@ -1926,6 +1927,9 @@ def warm_up_compositor() -> None:
     m = np.zeros((2, 2), np.uint8)
     t = np.zeros(256, np.int64)
     key_i420(yuv, 2, 2, rect, m, m, np.zeros(1, np.int64), np.zeros((1, 4), np.uint64), np.zeros(1, np.bool_), 35, 85, 70, 40, t, t, m)
+    from render.kernels import warm_up as warm_up_renderer
+
+    warm_up_renderer()  # the renderer's footprint
 
 
 _warm_thread: threading.Thread | None = None

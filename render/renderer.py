@@ -9,7 +9,7 @@
 
 Per frame
 ---------
-1. *Footprint* (CPU, numpy): every triangle of the scene is projected with
+1. *Footprint* (CPU, one compiled loop: :mod:`render.kernels`): every triangle of the scene is projected with
    the camera (the same lens model as the vertex shader, see
    :mod:`render.camera_gl`); the 8 x 8 pixel tiles their bounding boxes touch
    are what the GPU resolves, and 32-pixel rectangles covering those tiles are
@@ -46,7 +46,6 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import cv2
 import moderngl
 import numpy as np
 
@@ -54,6 +53,7 @@ from geometry.camera import Camera
 from render.camera_gl import _coeffs, projection_from_K, radial_limit, view_from_Rt
 from render.compositor import Compositor
 from render.context import create_context
+from render.kernels import footprint_tiles, tile_runs
 from render.scene import Scene, default_scene
 
 __all__ = ["Renderer", "Overlay", "Footprint", "TILE", "BLOCK"]
@@ -365,14 +365,11 @@ class Renderer:
             self._parts.append(g)
         self._positions = np.concatenate(positions) if positions else np.zeros((0, 3))
         self._triangles = np.concatenate(triangles) if triangles else np.zeros((0, 3), np.int64)
-        self._tri_cols = tuple(np.ascontiguousarray(self._triangles[:, i]) for i in range(3))
         self._tri_part = np.repeat(np.arange(len(self._parts)), [g.tri_stop - g.tri_start for g in self._parts]) if self._parts else np.zeros(0, np.int64)
 
-        self._size = np.array([float(W), float(H)])
         self._buf = np.zeros((H, W, 4), np.uint8)
         self._ntx, self._nty = -(-W // TILE), -(-H // TILE)
         self._nbx, self._nby = -(-self._ntx // BLOCK), -(-self._nty // BLOCK)
-        self._blocks_u8 = np.zeros((self._nby * BLOCK, self._nbx * BLOCK), np.uint8)
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
@@ -403,63 +400,14 @@ class Renderer:
         """
         W, H = self.width, self.height
         n_parts = len(self._parts)
-        empty = Footprint([], np.zeros((self._nty, self._ntx), bool), np.zeros(n_parts, bool), 0.1, 1.0)
         if len(self._triangles) == 0:
-            return empty
-        Xc = self._positions @ camera.R.T + camera.t
-        z = Xc[:, 2]
-        front = z > 1e-6
-        all_front = bool(front.all())
-        if not front.any():
-            return empty
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xn = Xc[:, :2] / (z if all_front else np.where(front, z, np.nan))[:, None]
+            return Footprint([], np.zeros((self._nty, self._ntx), bool), np.zeros(n_parts, bool), 0.1, 1.0)
         k = _coeffs(camera.dist)
-        if np.any(k):
-            r2 = np.minimum((xn * xn).sum(axis=1), radial_limit(camera.dist))
-            xn *= (1.0 + r2 * (k[0] + r2 * (k[1] + r2 * (k[2] + r2 * k[3]))))[:, None]
-        K = camera.K
-        u = K[0, 0] * xn[:, 0] + K[0, 1] * xn[:, 1] + K[0, 2]
-        v = K[1, 1] * xn[:, 1] + K[1, 2]
-        a, b, c = self._tri_cols
-        lo = np.empty((len(a), 2))  # (M, 2) pixel bounds of each triangle, NaN behind the camera
-        hi = np.empty((len(a), 2))
-        for i, w in enumerate((u, v)):
-            wa, wb, wc = w[a], w[b], w[c]
-            np.minimum(np.minimum(wa, wb, out=lo[:, i]), wc, out=lo[:, i])
-            np.maximum(np.maximum(wa, wb, out=hi[:, i]), wc, out=hi[:, i])
-        np.floor(lo, out=lo)
-        lo -= 1.0
-        np.ceil(hi, out=hi)
-        hi += 2.0
-        if not all_front:
-            n_front = front[a].view(np.int8) + front[b].view(np.int8) + front[c].view(np.int8)
-            cross = (n_front > 0) & (n_front < 3)  # crosses the camera plane: may cover anything
-            lo[cross], hi[cross] = 0.0, self._size
-            lo[n_front == 0], hi[n_front == 0] = 0.0, 0.0  # wholly behind: nothing
-        np.clip(lo, 0.0, self._size, out=lo)
-        np.clip(hi, 0.0, self._size, out=hi)
-        vis = (hi[:, 0] > lo[:, 0]) & (hi[:, 1] > lo[:, 1])
-        if not vis.any():
-            return empty
-        visible = np.bincount(self._tri_part[vis], minlength=n_parts) > 0
-        zf = z if all_front else z[front]
-        near = float(max(0.5 * zf.min(), 1e-3))
-        far = float(max(2.0 * zf.max(), 4.0 * near))
-        # tiles touched: every (tile row, tile column) pair of every bounding box, marked at once
-        t0 = (lo[vis] * (1.0 / TILE)).astype(np.int32)  # bounds are >= 0 and integral: exact floor / ceil
-        t1 = np.ceil(hi[vis] * (1.0 / TILE)).astype(np.int32)
-        nx_t, ny_t = t1[:, 0] - t0[:, 0], t1[:, 1] - t0[:, 1]
-        counts = nx_t * ny_t
-        which = np.repeat(np.arange(len(counts)), counts)
-        k = np.arange(len(which)) - np.repeat(np.cumsum(counts) - counts, counts)
-        w = nx_t[which]
-        tiles = np.zeros(self._nty * self._ntx, bool)
-        tiles[(t0[which, 1] + k // w) * self._ntx + t0[which, 0] + k % w] = True
-        tiles = tiles.reshape(self._nty, self._ntx)
-        blocks = self._blocks_u8  # (any tile of a block) via an area average of 0/255
-        blocks[: self._nty, : self._ntx] = tiles.view(np.uint8) * np.uint8(255)
-        blocks = cv2.resize(blocks, (self._nbx, self._nby), interpolation=cv2.INTER_AREA) > 0
+        r2max = radial_limit(camera.dist) if np.any(k) else math.inf
+        tiles, blocks, visible, near, far, _ = footprint_tiles(
+            self._positions, np.ascontiguousarray(camera.R, np.float64), np.ascontiguousarray(camera.t, np.float64), np.ascontiguousarray(camera.K, np.float64), k, float(r2max),
+            self._triangles, self._tri_part, n_parts, W, H, TILE, BLOCK, self._ntx, self._nty, self._nbx, self._nby,
+        )  # fmt: skip
         return Footprint(_rects_from_tiles(blocks, TILE * BLOCK, W, H), tiles, visible, near, far)
 
     # ------------------------------------------------------------------ frame
@@ -550,8 +498,8 @@ class Renderer:
         rects = fp.rects
         if lazy_matte and rects:
             matte = self._check_matte(grass_matte(list(rects)))
-        runs = _tile_runs(fp.tiles, self.width, self.height)  # what the GPU touches
-        stale = _tile_runs(self._prev_tiles & ~fp.tiles, self.width, self.height)  # drawn last frame, not now
+        runs = tile_runs(fp.tiles, TILE, self.width, self.height)  # what the GPU touches
+        stale = tile_runs(self._prev_tiles & ~fp.tiles, TILE, self.width, self.height)  # drawn last frame, not now
         rows = (min(r[1] for r in rects), max(r[3] for r in rects)) if rects else (0, 0)
         with self.ctx:
             if len(runs) or len(stale):
@@ -656,14 +604,6 @@ class Renderer:
     def draw(self, frame: np.ndarray, camera: Camera | None, grass_matte=None) -> np.ndarray:
         """Render for ``camera`` and composite onto ``frame`` (BGR uint8, H x W x 3) in place; returns ``frame``."""
         return self.compositor.composite(frame, self.render(camera, grass_matte))
-
-
-def _tile_runs(tiles: np.ndarray, W: int, H: int) -> np.ndarray:
-    """(n, 4) int pixel rectangles (x0, y0, x1, y1): one per run of marked tiles in a tile row."""
-    d = np.diff(tiles.view(np.int8), axis=1, prepend=0, append=0)
-    ys, xs = np.nonzero(d == 1)
-    _, xe = np.nonzero(d == -1)
-    return np.column_stack([xs * TILE, ys * TILE, np.minimum(xe * TILE, W), np.minimum((ys + 1) * TILE, H)])
 
 
 def _rects_from_tiles(tiles: np.ndarray, size: int, W: int, H: int) -> list[tuple[int, int, int, int]]:

@@ -496,13 +496,14 @@ def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly
-    # the signatures detection, tracking and keying call, so that nothing
-    # compiles mid-clip
+    # the signatures detection, tracking, keying and the renderer's footprint
+    # call, so that nothing compiles mid-clip
     from arstream import kernels
+    from render import kernels as render_kernels
 
     kernels.warm_up()
-    names = [n for n in kernels.__all__ if not n.startswith("warm_up")]
-    before = {n: len(getattr(kernels, n).signatures) for n in names}
+    names = [(m, n) for m in (kernels, render_kernels) for n in m.__all__ if not n.startswith("warm_up")]
+    before = {n: len(getattr(m, n).signatures) for m, n in names}
     assert all(v >= 1 for v in before.values()), before
     clip = SynthClip("penalty", seed=3, frames=30, size=(640, 360))
     det = Detector(640, 360)
@@ -527,7 +528,14 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
         refine_camera(cam, index, (640, 360), model, radii=(4.0,), **kw)
     yuv = cv2.cvtColor(clip.render(160), cv2.COLOR_BGR2YUV_I420)
     GrassKeyI420()(np.zeros((360, 640), np.uint8), yuv, 640, 360, [(0, 100, 640, 360)], d.grass_small, keep=d.line_small, keep_grow=2)
-    after = {n: len(getattr(kernels, n).signatures) for n in names}
+    # the renderer's footprint, with a pinhole and a distorted lens
+    from render import Renderer, default_scene
+    from render.synthetic import main_camera
+
+    with Renderer(640, 360, default_scene()) as r:
+        for dist in ((), (-0.2,)):
+            r.render(main_camera(640, 360, dist=dist))
+    after = {n: len(getattr(m, n).signatures) for m, n in names}
     assert after == before
 
 

@@ -366,6 +366,84 @@ def test_overlay_zero_outside_rects_and_stale_frames_cleared(ctx):
         assert lost.empty and lost.bgra.max() == 0
 
 
+
+def _footprint_numpy(r: Renderer, cam: Camera):
+    """The footprint's tiles, parts in view and depth range, in numpy: the
+    compiled loop's reference (render.kernels.footprint_tiles)."""
+    from render.camera_gl import _coeffs
+    from render.renderer import TILE
+
+    Xc = r._positions @ cam.R.T + cam.t
+    z = Xc[:, 2]
+    front = z > 1e-6
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xn = Xc[:, :2] / np.where(front, z, np.nan)[:, None]
+    k = _coeffs(cam.dist)
+    if np.any(k):
+        r2 = np.minimum((xn * xn).sum(axis=1), radial_limit(cam.dist))
+        xn *= (1.0 + r2 * (k[0] + r2 * (k[1] + r2 * (k[2] + r2 * k[3]))))[:, None]
+    uv = np.column_stack([cam.K[0, 0] * xn[:, 0] + cam.K[0, 1] * xn[:, 1] + cam.K[0, 2], cam.K[1, 1] * xn[:, 1] + cam.K[1, 2]])
+    T = uv[r._triangles]  # (M, 3, 2)
+    with np.errstate(invalid="ignore"):
+        lo, hi = np.floor(T.min(axis=1)) - 1.0, np.ceil(T.max(axis=1)) + 2.0
+    nf = front[r._triangles].sum(axis=1)
+    lo[(nf > 0) & (nf < 3)], hi[(nf > 0) & (nf < 3)] = 0.0, (r.width, r.height)  # crossing the camera plane: anything
+    lo[nf == 0], hi[nf == 0] = 0.0, 0.0  # behind: nothing
+    lo, hi = np.clip(lo, 0, (r.width, r.height)), np.clip(hi, 0, (r.width, r.height))
+    tiles = np.zeros((r._nty, r._ntx), bool)
+    vis = (hi > lo).all(axis=1)
+    for (x0, y0), (x1, y1) in zip(lo[vis].astype(int) // TILE, -(-hi[vis].astype(int) // TILE)):
+        tiles[y0:y1, x0:x1] = True
+    visible = np.bincount(r._tri_part[vis], minlength=len(r._parts)) > 0
+    return tiles, visible, max(0.5 * z[front].min(), 1e-3), max(2.0 * z[front].max(), 4.0 * max(0.5 * z[front].min(), 1e-3))
+
+
+def test_footprint_is_the_tiles_the_scene_touches(ctx):
+    # the compiled footprint against numpy: pans, zooms, a distorted lens, a low
+    # camera with the scene around and behind it (triangles crossing the camera
+    # plane cover anything), one looking away (nothing); its rectangles are
+    # disjoint, aligned blocks holding every touched tile
+    from render.kernels import tile_runs
+    from render.renderer import BLOCK, TILE
+
+    rng = np.random.default_rng(2)
+    cams = [main_camera(W, H, pan_deg=p, tilt_deg=t, hfov_deg=f) for p, t, f in rng.uniform((-40, 8, 8), (40, 30, 70), (40, 3))]
+    cams += [main_camera(W, H, pan_deg=p, dist=(-0.25, 0.05)) for p in (-20, 0, 25)]
+    cams += [main_camera(W, H, center=(0.0, 0.0, 1.7), tilt_deg=5.0, hfov_deg=70.0), main_camera(W, H, pan_deg=180.0, tilt_deg=-30.0)]
+    scene = default_scene()
+    scene.objects.append(DistanceRing(center=(0.0, 0.0), radius=9.15))
+    n_seen = n_cross = 0
+    with Renderer(W, H, scene, ctx=ctx) as r:
+        for cam in cams:
+            fp = r.footprint(cam)
+            if not fp.rects:
+                assert not fp.tiles.any()
+                continue
+            tiles, visible, near, far = _footprint_numpy(r, cam)
+            np.testing.assert_array_equal(fp.tiles, tiles)
+            np.testing.assert_array_equal(fp.visible, visible)
+            assert abs(fp.near - near) <= 1e-12 * near and abs(fp.far - far) <= 1e-12 * far
+            cover = np.zeros((r._nty, r._ntx), bool)
+            for x0, y0, x1, y1 in fp.rects:
+                assert x0 % (TILE * BLOCK) == 0 and y0 % (TILE * BLOCK) == 0 and x1 <= W and y1 <= H
+                assert not cover[y0 // TILE : -(-y1 // TILE), x0 // TILE : -(-x1 // TILE)].any(), "rectangles overlap"
+                cover[y0 // TILE : -(-y1 // TILE), x0 // TILE : -(-x1 // TILE)] = True
+            assert cover[fp.tiles].all()
+            n_seen += 1
+            n_cross += bool(fp.tiles.all())
+        assert n_seen >= 35 and n_cross >= 1
+        assert not r.footprint(cams[-1]).rects  # looking away from the pitch
+    # the runs of tiles the GPU resolves: one rectangle per run of a tile row
+    for _ in range(300):
+        w, h = rng.integers(1, 200, 2)
+        t = rng.random((-(-h // TILE), -(-w // TILE))) < rng.uniform(0, 1)
+        runs = [(x0, y0, x1, y1) for x0, y0, x1, y1 in tile_runs(t, TILE, w, h).tolist()]
+        want = []
+        for ty, row in enumerate(t):
+            edges = np.flatnonzero(np.diff(np.r_[0, row.astype(int), 0]))
+            want += [(a * TILE, ty * TILE, min(b * TILE, w), min((ty + 1) * TILE, h)) for a, b in zip(edges[::2], edges[1::2])]
+        assert runs == want
+
 def test_synthetic_frame_round_trip(ctx):
     """The demo scene drawn onto a synthetic broadcast frame changes only overlay pixels."""
     cam = main_camera(W, H, pan_deg=-8, tilt_deg=20)
