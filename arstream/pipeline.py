@@ -577,13 +577,16 @@ def _rect_array(rects, width: int, height: int, *, even: bool = False) -> np.nda
     """Rectangles (x0, y0, x1, y1) as an (R, 4) int64 array for the compiled I420
     passes: clipped to the frame (``even``: first grown outward to even pixels,
     as 4:2:0 chroma needs), the empty ones dropped."""
-    r = np.array([[int(v) for v in rc] for rc in rects], np.int64).reshape(-1, 4)
-    if even:
-        r[:, :2] &= ~1
-        r[:, 2:] = (r[:, 2:] + 1) & ~1
-    r[:, [0, 2]] = np.clip(r[:, [0, 2]], 0, width)
-    r[:, [1, 3]] = np.clip(r[:, [1, 3]], 0, height)
-    return r[(r[:, 2] > r[:, 0]) & (r[:, 3] > r[:, 1])]
+    out = []
+    for rc in rects:  # (a handful of rectangles: plain ints beat numpy's per-call cost)
+        x0, y0, x1, y1 = (int(v) for v in rc)
+        if even:
+            x0, y0, x1, y1 = x0 & ~1, y0 & ~1, (x1 + 1) & ~1, (y1 + 1) & ~1
+        x0, x1 = min(max(x0, 0), width), min(max(x1, 0), width)
+        y0, y1 = min(max(y0, 0), height), min(max(y1, 0), height)
+        if x1 > x0 and y1 > y0:
+            out.append((x0, y0, x1, y1))
+    return np.array(out, np.int64).reshape(-1, 4)
 
 
 class GrassKeyI420:
