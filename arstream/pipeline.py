@@ -252,18 +252,20 @@ class DetectStage(Stage):
     Without a detector module every item passes with ``detections=None``
     (``available`` is False). ``item.matte`` is the detector's grass mask, at
     the analysis size (the render stage scales it up). A ``detector`` given
-    instead has the same ``process(image, lazy=True)`` contract. ``motion``: a
-    callable giving the tracker's sideways image motion as of a frame (analysis
-    pixels per frame, or None), passed on to the detector as of two frames back
-    (it skips the search for lines smeared by a fast pan when the image moves
-    slowly).
+    instead has the same ``process(image, lazy=True)`` contract. ``hints``: a
+    callable giving the tracker's hints as of a frame (keyword arguments of
+    :meth:`arstream.detect.Detector.process`: ``motion``, the sideways image
+    motion, and ``line_width``, the widest painted line, analysis pixels),
+    passed on to the detector as of two frames back (it skips the search for
+    lines smeared by a fast pan when the image moves slowly, and the coarse
+    pass for wide lines when the lines are thin too).
     """
 
     name = "detect"
 
-    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None, motion=None):
+    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None, hints=None):
         self.analysis = analysis or Analysis(width, height)
-        self.motion = motion  # (frame) -> sideways image motion then (analysis px/frame) or None
+        self.hints = hints  # (frame) -> dict of the detector's hints as of then
         if detector is None:
             cls = _optional("arstream.detect", "Detector")
             detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
@@ -276,7 +278,7 @@ class DetectStage(Stage):
             # needs only the line points (re-initialisation asks for the rest)
             # as of two frames back: what a tracker one frame behind (the detector on
             # its own thread) has surely solved, so threaded or not, the same hint
-            hint = {} if self.motion is None else {"motion": self.motion(item.index - 2)}
+            hint = {} if self.hints is None else self.hints(item.index - 2)
             det = self.detector.process(self.analysis.image(item), lazy=True, **hint)
             item.detections = det
             item.matte = _matte_of(det)
@@ -289,15 +291,18 @@ def _boxed(box: list, stage):
     return stage
 
 
-def _motion_of(box: list):
-    """The sideways image motion of the tracker of the TrackStage in ``box`` (filled
-    once it is built), as a callable for :class:`DetectStage`."""
+def _hints_of(box: list):
+    """The detector's hints from the tracker of the TrackStage in ``box`` (filled
+    once it is built): a callable for :class:`DetectStage`, frame -> ``{motion,
+    line_width}`` as of that frame (each None where the tracker does not know)."""
 
-    def motion(frame: int) -> float | None:
+    def hints(frame: int) -> dict:
         tracker = box[0].tracker if box else None
-        return tracker.image_motion(frame) if tracker is not None and hasattr(tracker, "image_motion") else None
+        if tracker is None or not hasattr(tracker, "image_motion"):
+            return {}
+        return {"motion": tracker.image_motion(frame), "line_width": tracker.line_width(frame)}
 
-    return motion
+    return hints
 
 
 def _matte_of(det) -> np.ndarray | None:
@@ -1332,7 +1337,7 @@ def process(
         track_box: list = []
         stages = _build(
             [
-                lambda: _overlapped(DetectStage(W, H, analysis=an, motion=_motion_of(track_box)), overlap and not single),
+                lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
@@ -1459,7 +1464,7 @@ def stream(
 
         stages = _build(
             [
-                lambda: DetectStage(W, H, analysis=an, motion=_motion_of(track_box)),
+                lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an)),
                 make_logger,
                 lambda: RenderStage(W, H, scene),

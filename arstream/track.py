@@ -121,6 +121,29 @@ def _image_shift(a: Camera, b: Camera, centre: np.ndarray, size) -> float:
     return float(b.focal * np.hypot(d[0], d[1]) + 0.5 * size[0] * (abs(d[2]) + abs(d[3])))
 
 
+def widest_line(cam: Camera, size, line_width: float) -> float | None:
+    """The width (pixels) of a painted line ``line_width`` metres wide where the
+    pitch plane comes nearest the camera in the image: at the frame's bottom
+    edge (its corners and middle; a line running toward the camera keeps its
+    full width, ``f w / depth``). None when a point of that edge does not see
+    the pitch plane in front of the camera (looking up, or from below it).
+    Lens distortion is left out (a few per cent at the edge)."""
+    C = cam.center
+    if not C[2] > 0:
+        return None
+    w, h = size
+    Kinv = np.linalg.inv(cam.K)
+    r3 = cam.R[:, 2]  # the world's Z of a camera-frame direction: r3 . d
+    depth = np.inf
+    for u in (0.0, 0.5 * (w - 1), w - 1.0):
+        d = Kinv @ np.array([u, h - 1.0, 1.0])  # the ray at depth 1
+        down = -float(r3 @ d)  # metres the ray falls per metre of depth
+        if not down > 0:
+            return None
+        depth = min(depth, C[2] / down)
+    return float(cam.focal * line_width / depth)
+
+
 def _wrap(a: float) -> float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
@@ -315,6 +338,7 @@ class Tracker:
         self._motions: dict = {}  # steps -> (F, Q)
         self._motion_at: dict = {}  # frame -> sideways image motion (px/frame) or None, recent frames
         self._motion_last: float | None = None
+        self._width_at: dict = {}  # frame -> the widest painted line's width (px) or None, recent frames
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._last_f = None
         self._window: deque = deque()
@@ -391,6 +415,13 @@ class Tracker:
         # (single dict operations: atomic under the GIL, whatever the solving thread does)
         return self._motion_last if frame is None else self._motion_at.get(frame)
 
+    def line_width(self, frame: int) -> float | None:
+        """The widest painted line's width in the image (pixels; :func:`widest_line`)
+        with the camera solved for frame ``frame``, or None where unknown (not
+        solved, lost, long gone, or the frame's bottom edge does not see the
+        pitch plane). Like :meth:`image_motion`, a hint for the detector."""
+        return self._width_at.get(frame)
+
     def reset(self, *, keep_centre: bool = True) -> None:
         """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
         self._kf = None
@@ -410,9 +441,11 @@ class Tracker:
         kf = self._kf
         self._motion_last = None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)
         self._motion_at[index] = self._motion_last
+        self._width_at[index] = None if est.camera is None else widest_line(est.camera, self.size, self.pitch.line_width)
         if len(self._motion_at) > 16:  # keep the last 8 frames (frames may be skipped)
             for k in [k for k in self._motion_at if k <= index - 8]:
                 del self._motion_at[k]
+                self._width_at.pop(k, None)
         if self.lag == 0:
             return [est]
         self._window.append(est)

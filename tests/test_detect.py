@@ -493,6 +493,45 @@ def test_squashed_pass_is_skipped_only_when_the_image_moves_slowly():
     assert near[None] == near[20.0] > near[2.0] + 20
 
 
+
+def test_coarse_pass_is_skipped_only_when_every_line_is_thin(monkeypatch):
+    # a caller that knows the image moves slowly and no painted line is wider than
+    # the fine pass sees (a tracker's camera: arstream.track.widest_line) may skip
+    # the coarse pass, at no loss on frames with thin lines; on a close view
+    # (lines 9 px wide at 640 px) the true hint keeps it, and it is what finds them
+    from arstream.detect import detector as D
+    from arstream.track import widest_line
+    from render.synthetic import main_camera, pitch_frame
+
+    calls = []
+    real = D.ridge_points
+    monkeypatch.setattr(D, "ridge_points", lambda *a, **k: calls.append(a[0].shape) or real(*a, **k))
+    size = (640, 360)
+    clip = SynthClip("zoom", seed=11, frames=250, size=size)
+    for i in (0, 120):  # lines 2.4 and 3.9 px wide
+        img, lw = clip.render(i), widest_line(clip.truth(i).camera, size, 0.12)
+        assert lw <= D.FINE_WIDTH  # (working pixels: a 640 px frame is worked on as it is)
+        calls.clear()
+        hinted = Detector(*size).process(img, motion=1.0, line_width=lw)
+        assert calls == [(360, 640)]  # the fine pass alone
+        calls.clear()
+        full = Detector(*size).process(img, motion=1.0)
+        assert calls == [(360, 640), (180, 320)]  # fine and coarse (no squashed pass: slow)
+        np.testing.assert_array_equal(hinted.line_points, full.line_points)
+        calls.clear()
+        Detector(*size).process(img, motion=20.0, line_width=lw)  # a fast pan: all three
+        assert len(calls) == 3
+    cam = main_camera(*size, tilt_deg=24.0, hfov_deg=10.0)
+    img, _ = pitch_frame(cam, *size)
+    lw = widest_line(cam, size, 0.12)
+    assert lw > 2 * D.FINE_WIDTH
+    hinted = Detector(*size).process(img, motion=1.0, line_width=lw)
+    full = Detector(*size).process(img, motion=1.0)
+    np.testing.assert_array_equal(hinted.line_points, full.line_points)
+    assert len(hinted.line_points) > 200 and hinted.lines
+    wrong = Detector(*size).process(img, motion=1.0, line_width=2.0)  # a false "thin" hint
+    assert len(wrong.line_points) < 0.2 * len(hinted.line_points)
+
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly

@@ -12,7 +12,7 @@ from conftest import truth_detections
 from arstream.evaluate import score
 from arstream.solve import LineIndex, ModelSamples, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
 from arstream.synth import SynthClip
-from arstream.track import Tracker, TrackerConfig, initialise_camera
+from arstream.track import Tracker, TrackerConfig, initialise_camera, widest_line
 from geometry.camera import PTZ, camera_from_ptz, ptz_from_camera
 from geometry.conics import conic_from_ellipse, Ellipse
 from geometry.homography import transfer_conic, transfer_lines
@@ -470,6 +470,33 @@ def test_image_motion_by_frame():
         tr.process(i, i / clip.fps, None, truth_detections(clip.camera(i), seed=i))
     assert tr.image_motion(3) is None and tr.image_motion(57) is not None  # long gone; the last one
     assert len(tr._motion_at) <= 17
+    # the other hint: the widest painted line, from the camera solved for that frame
+    tr.process(60, 60 / clip.fps, None, truth_detections(clip.camera(60), seed=60))
+    assert abs(tr.line_width(60) - widest_line(clip.camera(60), SIZE, 0.12)) < 0.02 * widest_line(clip.camera(60), SIZE, 0.12)
+    assert tr.line_width(3) is None and tr.line_width(40) is None and len(tr._width_at) <= 17
+
+
+def test_widest_line_is_the_width_of_a_line_at_the_bottom_edge():
+    # f w / depth where the pitch plane is nearest: a 12 cm segment on the pitch,
+    # parallel to the image plane, at the bottom edge's corners and middle, is that
+    # wide once projected; the widest of the three is the answer. A camera
+    # looking up or standing below the pitch sees no such edge: None
+    from render.synthetic import main_camera
+
+    for pan, tilt, roll, hfov in ((0, 17, 0, 62), (25, 30, 0, 12), (-40, 8, 0, 40), (10, 20, 6, 30)):
+        cam = main_camera(*SIZE, pan_deg=pan, tilt_deg=tilt, roll_deg=roll, hfov_deg=hfov)
+        widths = []
+        for u in (0.0, (SIZE[0] - 1) / 2, SIZE[0] - 1.0):
+            g = cam.backproject_to_pitch(np.array([[u, SIZE[1] - 1.0]]))[0]
+            # a segment parallel to the image plane keeps its depth: f w / depth across the image
+            side = np.cross(cam.R[2], [0, 0, 1.0])  # on the pitch and parallel to the image plane
+            side /= np.linalg.norm(side)
+            ends = cam.project(np.array([[*g, 0.0], [*g, 0.0]]) + 0.06 * np.array([side, -side]))
+            widths.append(np.linalg.norm(ends[0] - ends[1]))
+        got = widest_line(cam, SIZE, 0.12)
+        assert abs(got - max(widths)) < 1e-6 * got, (pan, tilt, roll, got, widths)
+    assert widest_line(main_camera(*SIZE, tilt_deg=-15.0, hfov_deg=30), SIZE, 0.12) is None  # the bottom edge sees the sky
+    assert widest_line(main_camera(*SIZE, center=(0.0, -62.0, -1.0)), SIZE, 0.12) is None  # below the pitch
 
 
 @pytest.mark.parametrize("radius", [0.75, 2.5, 25.0, 1e9])  # (exact binary fractions: "exactly the radius away" is exact)

@@ -16,8 +16,12 @@ Pipeline (one :class:`Detector` per clip; :func:`detect` for a single image):
    checked for a two-sided contrast (stripes and shadow edges are one-sided
    steps) and elongation (kits and the ball are blobs); a second pass at half
    that resolution finds the wide lines (zoomed in, or smeared by a fast pan)
-   where the fine pass found nothing. Every centre has a sub-pixel position
-   and the line's normal.
+   where the fine pass found nothing, and a third on the frame squashed 4x
+   sideways the near-vertical lines a fast pan smears into bands. A caller
+   that knows the camera (a tracker) may say how fast the image moves and how
+   wide the widest line is: on a slow frame the squashed pass is skipped, and
+   the coarse one too when every line is thin. Every centre has a sub-pixel
+   position and the line's normal.
 3. **Straight lines** (:mod:`.segments`). An orientation-aware Hough vote
    (each centre votes once, with its own normal), peaks gathered,
    cut at long gaps only (pieces split by players merge), checked for

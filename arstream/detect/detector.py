@@ -24,6 +24,10 @@ _K3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
 # skipped (when the caller knows the motion): bands narrower than the coarse
 # pass's scale (a pan blurs a line by at most its motion over the exposure)
 SQUASH_MOTION = 3.0
+# working pixels: the widest line the fine pass centres well (its Hessian scale
+# 1.2 px sees a bar up to 2 sqrt(3) 1.2 = 4.2 px wide); when the caller knows
+# that no line is wider and the image moves slowly, the coarse pass is skipped
+FINE_WIDTH = 4.0
 
 
 class Detector:
@@ -190,7 +194,7 @@ class Detector:
             self.width, self.height, False, grass_small, self._grass_full, self._linemask_small, self._line_full, z, z.copy(), [], [], timings, self.factor
         )
 
-    def process(self, image: np.ndarray, *, lazy: bool = False, motion: float | None = None) -> Detections:
+    def process(self, image: np.ndarray, *, lazy: bool = False, motion: float | None = None, line_width: float | None = None) -> Detections:
         """Detect grass, line pixels, straight lines and circle ellipses in one frame.
 
         Parameters
@@ -207,6 +211,12 @@ class Detector:
             tracker's pan rate). Below ``SQUASH_MOTION`` working pixels per frame
             no line is smeared wider than the fine and coarse passes see, and the
             pass over the squashed frame is skipped. None (unknown): it runs.
+        line_width : float, optional
+            Width (frame pixels) of the widest painted line expected in the
+            frame (e.g. from a tracker's camera: :func:`arstream.track.widest_line`).
+            When it is at most ``FINE_WIDTH`` working pixels and ``motion`` says
+            the image moves slowly, the fine pass sees every line and the coarse
+            pass is skipped. None (unknown): it runs.
 
         Returns
         -------
@@ -241,17 +251,21 @@ class Detector:
         kf = 11 if self.tau is None else 2 * max(2, int(np.ceil(self.tau / self.factor))) + 1
         fine = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, bufs=self._rbufs)
         wc, hc = self._coarse_size
-        gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
-        rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
-        coarse = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
-        pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
+        slow = motion is not None and motion / self.factor < SQUASH_MOTION
+        if slow and line_width is not None and line_width / self.factor <= FINE_WIDTH:
+            pts, nrm = fine.pts, fine.nrm  # thin, sharp lines only: the fine pass's
+        else:
+            gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
+            rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
+            coarse = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
+            pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
         # a fast horizontal pan smears the near-vertical lines (the halfway line)
         # sideways into wide, faint bands: look for them on the frame squashed
         # 4x horizontally, where they are thin again (near-vertical ones only;
         # on every frame unless the caller knows the image moves slowly: how
         # blurred a frame is does not show reliably in cheap image statistics,
         # and this pass costs about 1.5 ms)
-        smeared = motion is None or not motion / self.factor < SQUASH_MOTION
+        smeared = not slow
         if smeared:
             ws = self._squash_w
             gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
