@@ -25,6 +25,7 @@ True
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,11 +52,6 @@ __all__ = [
     "undistort_normalized",
 ]
 
-# Camera axes in the world at pan = tilt = roll = 0: image x along +X, image y
-# along -Z (down), optical axis along +Y (toward the far touchline).
-_EYE3 = np.eye(3)
-_R_BASE = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-
 
 def intrinsic_matrix(f: float, cx: float, cy: float, aspect: float = 1.0, skew: float = 0.0) -> np.ndarray:
     """Calibration matrix ``[[f, skew, cx], [0, aspect f, cy], [0, 0, 1]]`` (3, 3) float64, pixels."""
@@ -81,9 +77,16 @@ def _check_K(K) -> np.ndarray:
 
 def _check_R(R) -> np.ndarray:
     R = np.asarray(R, dtype=np.float64)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+    if R.shape != (3, 3):
         raise ValueError(f"R must be a finite 3x3 matrix, got shape {R.shape}")
-    if not np.abs(R @ R.T - _EYE3).max() <= 1e-6 or np.linalg.det(R) < 0:
+    # on plain floats (cameras are made and taken apart several times a frame)
+    a, b, c = R.tolist()
+    if not all(map(math.isfinite, a + b + c)):
+        raise ValueError(f"R must be a finite 3x3 matrix, got shape {R.shape}")
+    aa, bb, cc = a[0] * a[0] + a[1] * a[1] + a[2] * a[2], b[0] * b[0] + b[1] * b[1] + b[2] * b[2], c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
+    ab, ac, bc = a[0] * b[0] + a[1] * b[1] + a[2] * b[2], a[0] * c[0] + a[1] * c[1] + a[2] * c[2], b[0] * c[0] + b[1] * c[1] + b[2] * c[2]
+    det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
+    if not max(abs(aa - 1.0), abs(bb - 1.0), abs(cc - 1.0), abs(ab), abs(ac), abs(bc)) <= 1e-6 or det < 0:  # R R^T = I, det +1
         raise ValueError("R must be a rotation (orthonormal, det +1)")
     return R
 
@@ -443,27 +446,27 @@ def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:
     y pointing down (-Z). The optical axis in the world is
     ``(sin(pan) cos(tilt), cos(pan) cos(tilt), -sin(tilt))``.
     """
-    cp, sp = np.cos(pan), np.sin(pan)
-    ct, st = np.cos(tilt), np.sin(tilt)
-    cr, sr = np.cos(roll), np.sin(roll)
-    Rz_pan = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
-    Rx_tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
-    Rz_roll = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
-    return Rz_roll @ Rx_tilt @ _R_BASE @ Rz_pan
+    cp, sp = math.cos(pan), math.sin(pan)
+    ct, st = math.cos(tilt), math.sin(tilt)
+    cr, sr = math.cos(roll), math.sin(roll)
+    # the product written out (on plain floats: the tracker builds several a frame)
+    return np.array(
+        [
+            [cr * cp + sr * st * sp, -cr * sp + sr * st * cp, sr * ct],
+            [sr * cp - cr * st * sp, -sr * sp - cr * st * cp, -cr * ct],
+            [ct * sp, ct * cp, -st],
+        ]
+    )
 
 
 def ptr_from_rotation(R) -> tuple[float, float, float]:
     """Inverse of :func:`rotation_from_ptr`: ``(pan, tilt, roll)`` radians, tilt in [-pi/2, pi/2]."""
-    R = _check_R(R)
-    r3 = R[2]
-    pan = float(np.arctan2(r3[0], r3[1]))
-    tilt = float(np.arctan2(-r3[2], np.hypot(r3[0], r3[1])))
-    cp, sp = np.cos(pan), np.sin(pan)
-    ct, st = np.cos(tilt), np.sin(tilt)
-    Rz_pan = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
-    Rx_tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
-    M = R @ (Rx_tilt @ _R_BASE @ Rz_pan).T
-    roll = float(np.arctan2(M[1, 0], M[0, 0]))
+    (r00, r01, _), (r10, r11, _), (r20, r21, r22) = _check_R(R).tolist()
+    pan = math.atan2(r20, r21)
+    tilt = math.atan2(-r22, math.hypot(r20, r21))
+    # roll: R times the inverse of Rx(tilt) R_BASE Rz(pan), whose first row is (cos pan, -sin pan, 0)
+    cp, sp = math.cos(pan), math.sin(pan)
+    roll = math.atan2(r10 * cp - r11 * sp, r00 * cp - r01 * sp)
     return pan, tilt, roll
 
 

@@ -16,6 +16,41 @@ def broadcast_camera(rng, pp=(640.0, 360.0)):
     return gcam.camera_from_ptz(center, ptz, pp)
 
 
+
+def test_pan_tilt_roll_rotation_is_the_documented_product():
+    # rotation_from_ptr (written out on floats) is Rz(roll) Rx(tilt) R0 Rz(pan), R0
+    # looking along +Y with image y down; ptr_from_rotation inverts it over the
+    # whole range (tilt inside (-pi/2, pi/2), where pan and roll are defined)
+    def Rz(a):
+        return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+    def Rx(a):
+        return np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+
+    R0 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    rng = np.random.default_rng(8)
+    for pan, tilt, roll in rng.uniform((-np.pi, -1.5, -np.pi), (np.pi, 1.5, np.pi), (2000, 3)):
+        R = gcam.rotation_from_ptr(pan, tilt, roll)
+        np.testing.assert_allclose(R, Rz(roll) @ Rx(tilt) @ R0 @ Rz(pan), rtol=0, atol=4e-16)
+        np.testing.assert_allclose(gcam.ptr_from_rotation(R), (pan, tilt, roll), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "R, message",
+    [
+        (2.0 * np.eye(3), "rotation"),
+        (np.diag([1.0, 1.0, -1.0]), "rotation"),  # a reflection
+        (np.eye(3)[[1, 0, 2]], "rotation"),  # rows swapped: det -1
+        (np.eye(3) + 1e-5, "rotation"),
+        (np.full((3, 3), np.nan), "finite 3x3"),
+        (np.eye(2), "finite 3x3"),
+    ],
+)
+def test_rotations_are_checked(R, message):
+    with pytest.raises(ValueError, match=message):
+        gcam.ptr_from_rotation(R)
+    gcam.ptr_from_rotation(np.eye(3)[[0, 2, 1]] * [1, 1, -1] + 1e-7)  # within 1e-6 of a rotation: taken
+
 @pytest.mark.parametrize("seed", range(12))
 def test_ptz_round_trip(seed):
     rng = np.random.default_rng(seed)
