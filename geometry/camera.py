@@ -52,6 +52,10 @@ __all__ = [
     "undistort_normalized",
 ]
 
+# Camera axes in the world at pan = tilt = roll = 0: image x along +X, image y
+# along -Z (down), optical axis along +Y (toward the far touchline).
+_R_BASE = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
 
 def intrinsic_matrix(f: float, cx: float, cy: float, aspect: float = 1.0, skew: float = 0.0) -> np.ndarray:
     """Calibration matrix ``[[f, skew, cx], [0, aspect f, cy], [0, 0, 1]]`` (3, 3) float64, pixels."""
@@ -446,17 +450,15 @@ def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:
     y pointing down (-Z). The optical axis in the world is
     ``(sin(pan) cos(tilt), cos(pan) cos(tilt), -sin(tilt))``.
     """
-    cp, sp = math.cos(pan), math.sin(pan)
-    ct, st = math.cos(tilt), math.sin(tilt)
-    cr, sr = math.cos(roll), math.sin(roll)
-    # the product written out (on plain floats: the tracker builds several a frame)
-    return np.array(
-        [
-            [cr * cp + sr * st * sp, -cr * sp + sr * st * cp, sr * ct],
-            [sr * cp - cr * st * sp, -sr * sp - cr * st * cp, -cr * ct],
-            [ct * sp, ct * cp, -st],
-        ]
-    )
+    cp, sp = np.cos(pan), np.sin(pan)
+    ct, st = np.cos(tilt), np.sin(tilt)
+    cr, sr = np.cos(roll), np.sin(roll)
+    Rz_pan = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
+    Rx_tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
+    Rz_roll = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
+    # (the matrix product as it is, not written out: synthetic clips' exact truth
+    # is made with it, and the last bits of their committed cameras must not move)
+    return Rz_roll @ Rx_tilt @ _R_BASE @ Rz_pan
 
 
 def ptr_from_rotation(R) -> tuple[float, float, float]:

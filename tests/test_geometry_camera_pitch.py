@@ -18,9 +18,9 @@ def broadcast_camera(rng, pp=(640.0, 360.0)):
 
 
 def test_pan_tilt_roll_rotation_is_the_documented_product():
-    # rotation_from_ptr (written out on floats) is Rz(roll) Rx(tilt) R0 Rz(pan), R0
-    # looking along +Y with image y down; ptr_from_rotation inverts it over the
-    # whole range (tilt inside (-pi/2, pi/2), where pan and roll are defined)
+    # rotation_from_ptr is Rz(roll) Rx(tilt) R0 Rz(pan), R0 looking along +Y with
+    # image y down; ptr_from_rotation (on plain floats) inverts it over the whole
+    # range (tilt inside (-pi/2, pi/2), where pan and roll are defined)
     def Rz(a):
         return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
 
