@@ -940,14 +940,34 @@ class _RayEngine:
 
 # --------------------------------------------------------------------------- the driver
 class _Signals:
-    """SIGINT/SIGTERM while scheduling: the first stops scheduling, the second abandons."""
+    """SIGINT/SIGTERM while scheduling: the first stops scheduling, the second abandons.
+
+    Python runs a handler once for however many times its signal arrived while
+    the main thread was busy in C code, and a loaded machine may not schedule
+    that thread between two quick Ctrl-Cs. So the deliveries are counted from
+    the wakeup fd too (``signal.set_wakeup_fd``: the C-level handler writes the
+    signal's number there once per delivery)."""
 
     def __init__(self):
         self.first: int | None = None
         self.count = 0
+        self._wakeup: socket.socket | None = None
+
+    def _deliveries(self) -> int:
+        """SIGINTs and SIGTERMs written to the wakeup fd since the last look."""
+        n = 0
+        while self._wakeup is not None:
+            try:
+                data = self._wakeup.recv(256)
+            except (BlockingIOError, InterruptedError):
+                break
+            if not data:
+                break
+            n += sum(1 for b in data if b in (signal.SIGINT, signal.SIGTERM))
+        return n
 
     def handler(self, signum, _frame) -> None:
-        self.count += 1
+        self.count += max(1, self._deliveries())
         if self.first is None:
             self.first = signum
 
@@ -957,13 +977,24 @@ class _Signals:
             yield
             return
         old = {}
+        r, w = socket.socketpair()
+        r.setblocking(False)
+        w.setblocking(False)
+        old_fd = None
         try:
+            old_fd = signal.set_wakeup_fd(w.fileno(), warn_on_full_buffer=False)
+            self._wakeup = r
             for s in (signal.SIGINT, signal.SIGTERM):
                 old[s] = signal.signal(s, self.handler)
             yield
         finally:
             for s, h in old.items():
                 signal.signal(s, h)
+            if old_fd is not None:
+                signal.set_wakeup_fd(old_fd)
+            self._wakeup = None
+            r.close()
+            w.close()
 
 
 @contextlib.contextmanager

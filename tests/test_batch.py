@@ -19,6 +19,7 @@ import threading
 import time
 
 import av
+import numpy as np
 import pytest
 
 from arstream import batch
@@ -267,6 +268,32 @@ def writers_of(folder) -> list[int]:
             continue
     return sorted(pids)
 
+
+
+def test_two_quick_signals_count_twice_while_the_main_thread_is_busy():
+    # Python runs a signal's handler once for however many times the signal
+    # arrived while the main thread was busy in C code (a loaded machine may not
+    # schedule it between two quick Ctrl-Cs); the batch still counts both
+    sig = batch._Signals()
+    big = np.random.default_rng(0).random(10**7)
+
+    def send():
+        time.sleep(0.05)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    with sig.installed(True):
+        t = threading.Thread(target=send)
+        t.start()
+        t0 = time.perf_counter()
+        np.sort(big, kind="heapsort")  # one C call, no handler runs inside it
+        busy = time.perf_counter() - t0
+        t.join()
+        for _ in range(3):  # the handlers run between bytecodes
+            time.sleep(0.01)
+    assert busy > 0.2  # (both signals arrived inside the sort)
+    assert sig.first == signal.SIGINT and sig.count == 2
 
 @pytest.mark.parametrize("signals", [1, 2], ids=["ctrl-c-finishes-running", "second-ctrl-c-abandons"])
 def test_ctrl_c_stops_the_batch(archive, long_clip, tmp_path, signals):
