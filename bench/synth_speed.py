@@ -12,9 +12,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import os
 import resource
+import sys
 import tempfile
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # this checkout, not whatever is installed
 
 from arstream.synth import PRESETS, generate
 
