@@ -661,6 +661,13 @@ def chains(xi, yi, reach, grid):
 
 
 @nb.njit(**_JIT)
+def _on_mask(mask, x, y, fx, fy):
+    """Whether point (x, y), scaled by (``fx``, ``fy``) to the cells of ``mask``
+    (truncated, clamped), falls on a non-zero cell."""
+    return mask[_cell(y, fy, False, mask.shape[0]), _cell(x, fx, False, mask.shape[1])] > 0
+
+
+@nb.njit(**_JIT)
 def beside_grass(pts, nrm, d, mask, fx, fy):
     """Which points have grass on at least one side: ``mask`` (a small image,
     non-zero on grass) at ``pts`` +- ``d`` ``nrm`` scaled by (``fx``, ``fy``) to
@@ -677,15 +684,12 @@ def beside_grass(pts, nrm, d, mask, fx, fy):
     -------
     (N,) bool
     """
-    mh, mw = mask.shape
     n = pts.shape[0]
     keep = np.empty(n, np.bool_)
     for i in range(n):
         ok = False
         for sgn in (1.0, -1.0):
-            x = pts[i, 0] + sgn * d * nrm[i, 0]
-            y = pts[i, 1] + sgn * d * nrm[i, 1]
-            if mask[_cell(y, fy, False, mh), _cell(x, fx, False, mw)] > 0:
+            if _on_mask(mask, pts[i, 0] + sgn * d * nrm[i, 0], pts[i, 1] + sgn * d * nrm[i, 1], fx, fy):
                 ok = True
         keep[i] = ok
     return keep
@@ -708,13 +712,12 @@ def mask_at(pts, mask, fx, fy, xmax, ymax):
     -------
     (N,) bool
     """
-    mh, mw = mask.shape
     n = pts.shape[0]
     out = np.zeros(n, np.bool_)
     for i in range(n):
         x, y = pts[i, 0], pts[i, 1]
         if 0.0 <= x <= xmax and 0.0 <= y <= ymax:
-            out[i] = mask[_cell(y, fy, False, mh), _cell(x, fx, False, mw)] > 0
+            out[i] = _on_mask(mask, x, y, fx, fy)
     return out
 
 

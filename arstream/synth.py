@@ -38,8 +38,6 @@ __all__ = ["Preset", "PRESETS", "SynthClip", "generate", "TruthFrame"]
 GENERATOR_VERSION = 1
 
 
-
-
 @dataclass
 class TruthFrame:
     """Ground truth of one frame (a ``truth.jsonl`` record, DESIGN.md section 5)."""

@@ -4,8 +4,9 @@ The renderer's one per-frame CPU task besides driving GL is its footprint:
 where the scene's triangles land in the image (:meth:`render.Renderer.footprint`).
 Written as numpy expressions over the few hundred triangles of a scene it is
 some thirty small array operations (about 0.4 ms a frame); here it is one
-loop, and the runs of tiles the GPU resolves another. Compiled on first use and cached next to this file (numba's
-``cache=True``); :func:`warm_up` loads it ahead of a run.
+loop, and the runs of tiles the GPU resolves another. Compiled on first use
+and cached next to this file (numba's ``cache=True``); :func:`warm_up` loads
+them ahead of a run.
 """
 
 from __future__ import annotations
@@ -49,9 +50,8 @@ def footprint_tiles(P, R, t, K, k, r2max, tri, tri_part, n_parts, width, height,
     blocks : (nby, nbx) bool, the blocks holding a touched tile
     visible : (n_parts,) bool, parts with a triangle in view
     near, far : float, the depth range of the vertices in front of the camera
-        (half the nearest, twice the farthest, at least 1 mm and 4 x near)
-    any_visible : bool, some triangle is in view (else the rest is all False,
-        near 0.1, far 1.0)
+        (half the nearest, twice the farthest, at least 1 mm and 4 x near);
+        0.1 and 1.0 when no triangle is in view (``tiles`` all False)
     """
     nv = P.shape[0]
     m = tri.shape[0]
@@ -82,7 +82,7 @@ def footprint_tiles(P, R, t, K, k, r2max, tri, tri_part, n_parts, width, height,
         u[i] = K[0, 0] * xn + K[0, 1] * yn + K[0, 2]
         v[i] = K[1, 1] * yn + K[1, 2]
     if n_front == 0:
-        return tiles, blocks, visible, 0.1, 1.0, False
+        return tiles, blocks, visible, 0.1, 1.0
     W, H = float(width), float(height)
     inv_tile = 1.0 / tile
     any_visible = False
@@ -109,10 +109,9 @@ def footprint_tiles(P, R, t, K, k, r2max, tri, tri_part, n_parts, width, height,
                 tiles[ty, tx] = True
                 blocks[ty // block, tx // block] = True
     if not any_visible:
-        return tiles, blocks, visible, 0.1, 1.0, False
+        return tiles, blocks, visible, 0.1, 1.0
     near = max(0.5 * zmin, 1e-3)
-    far = max(2.0 * zmax, 4.0 * near)
-    return tiles, blocks, visible, near, far, True
+    return tiles, blocks, visible, near, max(2.0 * zmax, 4.0 * near)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=False, boundscheck=False)
@@ -155,5 +154,5 @@ def tile_runs(tiles, tile, width, height):
 def warm_up() -> None:
     """Load (or compile) the kernels by calling them once on tiny inputs."""
     I3 = np.eye(3)
-    tiles, blocks, _, _, _, _ = footprint_tiles(np.ones((3, 3)), I3, np.zeros(3), I3, np.zeros(4), np.inf, np.zeros((1, 3), np.int64), np.zeros(1, np.int64), 1, 16, 16, 8, 2, 2, 2, 1, 1)
+    tiles, _, _, _, _ = footprint_tiles(np.ones((3, 3)), I3, np.zeros(3), I3, np.zeros(4), np.inf, np.zeros((1, 3), np.int64), np.zeros(1, np.int64), 1, 16, 16, 8, 2, 2, 2, 1, 1)
     tile_runs(tiles, 8, 16, 16)

@@ -9,12 +9,12 @@
 
 Per frame
 ---------
-1. *Footprint* (CPU, one compiled loop: :mod:`render.kernels`): every triangle of the scene is projected with
-   the camera (the same lens model as the vertex shader, see
-   :mod:`render.camera_gl`); the 8 x 8 pixel tiles their bounding boxes touch
-   are what the GPU resolves, and 32-pixel rectangles covering those tiles are
-   what the compositor blends. The cost follows what is drawn, not the frame
-   size.
+1. *Footprint* (CPU, compiled loops: :mod:`render.kernels`): every triangle
+   of the scene is projected with the camera (the same lens model as the
+   vertex shader, see :mod:`render.camera_gl`); the 8 x 8 pixel tiles their
+   bounding boxes touch are what the GPU resolves, and 32-pixel rectangles
+   covering those tiles are what the compositor blends. The cost follows
+   what is drawn, not the frame size.
 2. *Draw* into a multisampled (MSAA) RGBA8 + depth framebuffer that is all
    zero between frames. Colours are premultiplied; "over" is
    ``blend_func = (ONE, ONE_MINUS_SRC_ALPHA)``. On-grass parts first, in scene
@@ -404,7 +404,7 @@ class Renderer:
             return Footprint([], np.zeros((self._nty, self._ntx), bool), np.zeros(n_parts, bool), 0.1, 1.0)
         k = _coeffs(camera.dist)
         r2max = radial_limit(camera.dist) if np.any(k) else math.inf
-        tiles, blocks, visible, near, far, _ = footprint_tiles(
+        tiles, blocks, visible, near, far = footprint_tiles(
             self._positions, np.ascontiguousarray(camera.R, np.float64), np.ascontiguousarray(camera.t, np.float64), np.ascontiguousarray(camera.K, np.float64), k, float(r2max),
             self._triangles, self._tri_part, n_parts, W, H, TILE, BLOCK, self._ntx, self._nty, self._nbx, self._nby,
         )  # fmt: skip
