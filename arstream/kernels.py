@@ -26,13 +26,32 @@ from __future__ import annotations
 
 import math
 import threading
+import types
 
 import numba as nb
 import numpy as np
 
-__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "cut_by_line", "direct_fit", "direct_fits", "ellipse_params", "grid_clear", "grid_nearest", "hough_lines", "hough_votes", "key_i420", "marking_residuals", "mask_at", "perimeter_bins", "point_grid", "pose_from_params", "project_points", "refine_conic", "refine_pose", "ridge_scan", "warm_up", "warm_up_async", "warm_up_compositor"]
+from geometry.conics import ellipse_params_sym
+from geometry.lines import eigh_sym2
+
+
+__all__ = ["band_scan", "beside_grass", "chains", "component_stats", "composite_i420", "conic_band", "conic_counts", "cut_by_line", "direct_fit", "direct_fits", "ellipse_params", "fit_lines", "frame_ellipse", "full_rows", "grid_clear", "grid_nearest", "hartley_monomials", "hough_lines", "hough_votes", "key_i420", "label_scatters", "marking_residuals", "mask_at", "perimeter_bins", "point_grid", "pose_from_params", "project_points", "refine_conic", "refine_pose", "ridge_scan", "settle_points", "warm_up", "warm_up_async", "warm_up_compositor"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=False, boundscheck=False)
+
+
+def _compiled(fn, **deps):
+    """A plain-float helper of :mod:`geometry` compiled for the kernels to call
+    (the same arithmetic as in Python), with the helpers it calls in turn
+    (``deps``: name -> compiled version) in place of its module's Python ones.
+    numba's cache keys on this file only: after editing such a helper, touch
+    this file (or clear ``__pycache__``) to recompile the kernels that call it."""
+    scope = dict(fn.__globals__, **deps)
+    return nb.njit(nogil=True)(types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__))
+
+
+_eigh_sym2 = _compiled(eigh_sym2)
+_ellipse_params_sym = _compiled(ellipse_params_sym, eigh_sym2=_eigh_sym2)
 
 
 @nb.njit(**_JIT)
@@ -619,17 +638,25 @@ def chains(xi, yi, reach, grid):
             grid[yi[i], xi[i]] = i
         else:
             parent[i] = r
+    # links are symmetric: each cell looks back only (the rows above within
+    # reach, and its own row's cells to its left). A chain's root is its lowest
+    # index, whatever the order of the links
     for i in range(n):
-        if grid[yi[i], xi[i]] != i:
+        cy, cx = yi[i], xi[i]
+        if grid[cy, cx] != i:
             continue
-        for y in range(max(yi[i] - reach, 0), min(yi[i] + reach + 1, gh)):
-            for x in range(max(xi[i] - reach, 0), min(xi[i] + reach + 1, gw)):
+        a = _root(parent, i)
+        for y in range(max(cy - reach, 0), cy + 1):
+            x_end = min(cx + reach + 1, gw) if y < cy else cx
+            for x in range(max(cx - reach, 0), x_end):
                 j = grid[y, x]
                 if j >= 0:
-                    a = _root(parent, i)
                     b = _root(parent, j)
-                    if a != b:
-                        parent[max(a, b)] = min(a, b)
+                    if b < a:
+                        parent[a] = b
+                        a = b
+                    elif b > a:
+                        parent[b] = a
     first = np.full(n, gh * gw)
     x0 = np.full(n, gw)
     x1 = np.full(n, -1)
@@ -693,6 +720,65 @@ def beside_grass(pts, nrm, d, mask, fx, fy):
                 ok = True
         keep[i] = ok
     return keep
+
+
+@nb.njit(**_JIT)
+def settle_points(pts, nrm, d, mask, fx, fy, cell_x, cell_y, grid, min_extent, lm, sx, tx, sy, ty):
+    """The detector's last pass over its line points: those with grass beside
+    them (:func:`beside_grass`) that lie in connected chains (:func:`chains`,
+    reach 1, on the grid of cells ``(x cell_x, y cell_y)``, truncated and
+    clamped) at least ``min_extent`` cells long or high; their mask and their
+    frame coordinates.
+
+    Parameters
+    ----------
+    pts, nrm : (N, 2) float64 working-pixel points and unit normals
+    d, mask, fx, fy : as :func:`beside_grass`
+    cell_x, cell_y : float, grid cells per working pixel
+    grid : (gh, gw) int32 scratch, -1 on entry and on return
+    min_extent : float
+    lm : (h, w) uint8, set to 255 at the kept points (rounded, clamped) and 0 elsewhere
+    sx, tx, sy, ty : float, working -> frame pixels ``(sx x + tx, sy y + ty)``
+
+    Returns
+    -------
+    sel : (M,) int64 indices of the kept points, in order
+    labels : (M,) int32 their chains (as :func:`chains` numbers them)
+    full : (M, 2) float64 their frame coordinates
+    """
+    keep = beside_grass(pts, nrm, d, mask, fx, fy)
+    idx = np.flatnonzero(keep)
+    m = idx.shape[0]
+    gh, gw = grid.shape
+    cxi = np.empty(m, np.int64)
+    cyi = np.empty(m, np.int64)
+    for k in range(m):
+        i = idx[k]
+        cxi[k] = min(max(int(pts[i, 0] * cell_x), 0), gw - 1)
+        cyi[k] = min(max(int(pts[i, 1] * cell_y), 0), gh - 1)
+    lab, ext_x, ext_y = chains(cxi, cyi, 1, grid)
+    cnt = 0
+    for k in range(m):
+        if max(ext_x[k], ext_y[k]) + 1 >= min_extent:
+            cnt += 1
+    sel = np.empty(cnt, np.int64)
+    labels = np.empty(cnt, np.int32)
+    full = np.empty((cnt, 2))
+    lm[:, :] = 0
+    h, w = lm.shape
+    j = 0
+    for k in range(m):
+        if max(ext_x[k], ext_y[k]) + 1 >= min_extent:
+            i = idx[k]
+            x = pts[i, 0]
+            y = pts[i, 1]
+            sel[j] = i
+            labels[j] = lab[k]
+            full[j, 0] = x * sx + tx
+            full[j, 1] = y * sy + ty
+            lm[min(max(int(np.rint(y)), 0), h - 1), min(max(int(np.rint(x)), 0), w - 1)] = 255
+            j += 1
+    return sel, labels, full
 
 
 @nb.njit(**_JIT)
@@ -1318,13 +1404,19 @@ def component_stats(labels, n):
     y1 = np.full(n, -1, np.int32)
     area = np.zeros(n, np.int32)
     for y in range(h):
-        for x in range(w):
-            k = labels[y, x]
-            area[k] += 1
-            if x < x0[k]:
-                x0[k] = x
-            if x > x1[k]:
-                x1[k] = x
+        row = labels[y]
+        x = 0
+        while x < w:  # one run of a label at a time
+            k = row[x]
+            start = x
+            x += 1
+            while x < w and row[x] == k:
+                x += 1
+            area[k] += x - start
+            if start < x0[k]:
+                x0[k] = start
+            if x - 1 > x1[k]:
+                x1[k] = x - 1
             if y < y0[k]:
                 y0[k] = y
             y1[k] = y
@@ -1340,6 +1432,81 @@ def component_stats(labels, n):
 
 
 @nb.njit(**_JIT)
+def full_rows(labels, stats, ks, share):
+    """Rows of components that their label fills (the screen-graphics test of
+    :func:`arstream.detect.grass.grass_masks`): for each label ``k`` of ``ks``,
+    the rows of its bounding box (``stats`` as :func:`component_stats`) where
+    it covers at least ``share`` of the box's width.
+
+    Returns
+    -------
+    (len(ks), 3) int64: the number of such rows, the first and the last (box
+    rows counted from the box's top; -1 when there are none)
+    """
+    out = np.full((ks.shape[0], 3), -1, np.int64)
+    for i in range(ks.shape[0]):
+        k = ks[i]
+        x, y, bw, bh = stats[k, 0], stats[k, 1], stats[k, 2], stats[k, 3]
+        cnt = 0
+        for r in range(bh):
+            row = labels[y + r]
+            c = 0
+            for xx in range(x, x + bw):
+                if row[xx] == k:
+                    c += 1
+            if c >= share * bw:
+                if cnt == 0:
+                    out[i, 1] = r
+                out[i, 2] = r
+                cnt += 1
+        out[i, 0] = cnt
+    return out
+
+
+@nb.njit(**_JIT)
+def hartley_monomials(pts):
+    """Hartley normalisation of points and the monomials of the result (the
+    ellipse search's set-up, one pass instead of a dozen numpy calls).
+
+    Parameters
+    ----------
+    pts : (N, 2) float64, N >= 1
+
+    Returns
+    -------
+    q : (N, 2) ``s (pts - m)``, mean distance from the origin sqrt(2)
+    D : (N, 6) ``[x^2, x y, y^2, x, y, 1]`` of ``q``
+    mx, my, s : float, the centroid ``m`` and the scale
+    """
+    n = pts.shape[0]
+    mx = 0.0
+    my = 0.0
+    for i in range(n):
+        mx += pts[i, 0]
+        my += pts[i, 1]
+    mx /= n
+    my /= n
+    r = 0.0
+    for i in range(n):
+        r += math.hypot(pts[i, 0] - mx, pts[i, 1] - my)
+    s = math.sqrt(2.0) / max(r / n, 1e-9)
+    q = np.empty((n, 2))
+    D = np.empty((n, 6))
+    for i in range(n):
+        x = (pts[i, 0] - mx) * s
+        y = (pts[i, 1] - my) * s
+        q[i, 0] = x
+        q[i, 1] = y
+        D[i, 0] = x * x
+        D[i, 1] = x * y
+        D[i, 2] = y * y
+        D[i, 3] = x
+        D[i, 4] = y
+        D[i, 5] = 1.0
+    return q, D, mx, my, s
+
+
+@nb.njit(**_JIT)
 def direct_fits(S):
     """:func:`direct_fit` of a stack of scatter matrices (K, 6, 6): coef (K, 6), ok (K,)."""
     K = S.shape[0]
@@ -1350,6 +1517,177 @@ def direct_fits(S):
         coef[k] = c
         ok[k] = good
     return coef, ok
+
+
+@nb.njit(**_JIT)
+def label_scatters(D, labels, free, slot_of):
+    """Scatter matrices of the monomials of several groups of points at once
+    (the ellipse search's arcs): ``S[k] = sum D[i]^T D[i]`` over the free points
+    ``i`` whose label has slot ``k = slot_of[labels[i]]`` (``-1``: none).
+
+    Parameters
+    ----------
+    D : (N, 6) float64 monomials of the points
+    labels : (N,) int, label of each point (``0 <= labels < len(slot_of)``)
+    free : (N,) bool
+    slot_of : (L,) int64, slot of each label or -1
+
+    Returns
+    -------
+    (max(slot_of) + 1, 6, 6) float64
+    """
+    ns = 0
+    for j in range(slot_of.shape[0]):
+        ns = max(ns, slot_of[j] + 1)
+    S = np.zeros((ns, 6, 6))
+    for i in range(D.shape[0]):
+        if not free[i]:
+            continue
+        k = slot_of[labels[i]]
+        if k < 0:
+            continue
+        for a in range(6):
+            da = D[i, a]
+            for b in range(a, 6):
+                S[k, a, b] += da * D[i, b]
+    for k in range(ns):
+        for a in range(6):
+            for b in range(a):
+                S[k, a, b] = S[k, b, a]
+    return S
+
+
+@nb.njit(**_JIT)
+def frame_ellipse(coef, T):
+    """The ellipse of a conic given in other coordinates: the conic
+    ``[A, B, C, D, E, F]`` (``A x^2 + B x y + C y^2 + D x + E y + F``) in
+    coordinates ``q = T p`` pulled back to ``p`` (``T^T M T``), symmetrised and
+    normalised as :func:`geometry.conics.normalize_conic`, then
+    :func:`geometry.conics.ellipse_params_sym` (what
+    :func:`geometry.conics.ellipse_from_conic` computes, without its numpy
+    calls: the ellipse search validates several hypotheses a frame).
+
+    Parameters
+    ----------
+    coef : (6,) float64
+    T : (3, 3) float64, ``p`` -> ``q`` (homogeneous)
+
+    Returns
+    -------
+    (status, cx, cy, a, b, angle) in ``p``: status 0 for a real ellipse, 1 for
+    a hyperbola, parabola, degenerate or zero conic, 2 for an imaginary or
+    point ellipse (see :func:`geometry.conics.ellipse_params_sym`).
+    """
+    M = np.empty((3, 3))
+    M[0, 0] = coef[0]
+    M[0, 1] = M[1, 0] = coef[1] / 2
+    M[1, 1] = coef[2]
+    M[0, 2] = M[2, 0] = coef[3] / 2
+    M[1, 2] = M[2, 1] = coef[4] / 2
+    M[2, 2] = coef[5]
+    MT = np.zeros((3, 3))  # M T
+    for i in range(3):
+        for j in range(3):
+            v = 0.0
+            for k in range(3):
+                v += M[i, k] * T[k, j]
+            MT[i, j] = v
+    C = np.zeros((3, 3))  # T^T M T
+    for i in range(3):
+        for j in range(3):
+            v = 0.0
+            for k in range(3):
+                v += T[k, i] * MT[k, j]
+            C[i, j] = v
+    nn = 0.0
+    for i in range(3):
+        for j in range(3):
+            c = 0.5 * (C[i, j] + C[j, i])
+            nn += c * c
+    nn = math.sqrt(nn)
+    if not nn >= 1e-12:  # zero or NaN
+        return 1, 0.0, 0.0, 0.0, 0.0, 0.0
+    p, q, r = C[0, 0] / nn, 0.5 * (C[0, 1] + C[1, 0]) / nn, C[1, 1] / nn
+    d, e, f = 0.5 * (C[0, 2] + C[2, 0]) / nn, 0.5 * (C[1, 2] + C[2, 1]) / nn, C[2, 2] / nn
+    tr = p + r
+    if tr < 0 or (tr == 0 and f > 0):
+        p, q, r, d, e, f = -p, -q, -r, -d, -e, -f
+    return _ellipse_params_sym(p, q, r, d, e, f)
+
+
+@nb.njit(**_JIT)
+def fit_lines(P, members, offsets):
+    """Total-least-squares lines of groups of points, one pass for all
+    (:func:`geometry.lines.fit_line` of each group, unweighted: the detector's
+    final fit of its line groups in frame pixels).
+
+    Parameters
+    ----------
+    P : (N, 2) float64 points
+    members : (M,) int, the groups' point indices, one group after the other
+    offsets : (K + 1,) int, group ``k`` is ``members[offsets[k]:offsets[k + 1]]``
+
+    Returns
+    -------
+    line : (K, 3) ``a x + b y + c = 0`` with unit normal ``(a, b)`` (NaN for a
+        group with fewer than 2 distinct points)
+    rms : (K,) RMS distance of the group's points from its line
+    normal_sigma, angle_sigma : (K,) offset (px) and direction (rad)
+        uncertainties, as :func:`geometry.lines.fit_line`
+    ends : (K, 2) int64, positions within the group (first and last along the
+        direction ``(-b, a)``) of its extreme points
+    length : (K,) distance between them along the line
+    """
+    K = offsets.shape[0] - 1
+    line = np.full((K, 3), np.nan)
+    rms = np.full(K, np.nan)
+    sig_n = np.full(K, np.nan)
+    sig_a = np.full(K, np.nan)
+    ends = np.zeros((K, 2), np.int64)
+    length = np.zeros(K)
+    for k in range(K):
+        o0, o1 = offsets[k], offsets[k + 1]
+        n = o1 - o0
+        if n < 2:
+            continue
+        cx = 0.0
+        cy = 0.0
+        for j in range(o0, o1):
+            cx += P[members[j], 0]
+            cy += P[members[j], 1]
+        cx /= n
+        cy /= n
+        sxx = 0.0
+        sxy = 0.0
+        syy = 0.0
+        for j in range(o0, o1):
+            dx = P[members[j], 0] - cx
+            dy = P[members[j], 1] - cy
+            sxx += dx * dx
+            sxy += dx * dy
+            syy += dy * dy
+        w0, w1, nx, ny = _eigh_sym2(sxx / n, sxy / n, syy / n)
+        if w1 < 1e-12:  # the points coincide
+            continue
+        line[k, 0] = nx
+        line[k, 1] = ny
+        line[k, 2] = -(nx * cx + ny * cy)
+        r = math.sqrt(max(w0, 0.0))
+        rms[k] = r
+        sig_n[k] = r / math.sqrt(n - 2) if n > 2 else math.inf
+        sig_a[k] = sig_n[k] / math.sqrt(w1)
+        tmin = math.inf
+        tmax = -math.inf
+        for j in range(o0, o1):
+            t = -ny * P[members[j], 0] + nx * P[members[j], 1]
+            if t < tmin:
+                tmin = t
+                ends[k, 0] = j - o0
+            if t > tmax:
+                tmax = t
+                ends[k, 1] = j - o0
+        length[k] = tmax - tmin
+    return line, rms, sig_n, sig_a, ends, length
 
 
 @nb.njit(**_JIT)
@@ -1900,14 +2238,20 @@ def warm_up() -> None:
     conic_counts(np.ones((1, 6)), p, p, z, 1.0, 0.95)
     refine_conic(np.ones(6), p, p, z, 1.0, 1.5, 2.25)
     perimeter_bins(p, 0.0, 0.0, 0.0, 2.0, 1.0, 64, 0.3, 1.0)
+    label_scatters(np.zeros((1, 6)), np.zeros(1, np.int32), np.ones(1, np.bool_), z)
+    frame_ellipse(np.ones(6), np.eye(3))
+    fit_lines(p, z, np.zeros(2, np.int64))
     hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
     hough_votes(p, p, 0.0, 0.0, 1.0, 2.0, 4, 3, 1, 1.0, 4)
     grid_clear(p, p, 1.0, 1.0, True, 2, 0, np.zeros((2, 2), np.uint8))
     chains(z, z, 1, np.full((2, 2), -1, np.int32))
     beside_grass(p, p, 1.0, th, 1.0, 1.0)
+    settle_points(p, p, 1.0, th, 1.0, 1.0, 1.0, 1.0, np.full((2, 2), -1, np.int32), 1.0, th, 1.0, 0.0, 1.0, 0.0)
     cut_by_line(p, np.ones((1, 3)), 0.0, 0.0, 2.0, 1.0, 0.0, 0.95)
     mask_at(p, th, 1.0, 1.0, 1.0, 1.0)
     component_stats(np.zeros((2, 2), np.int32), 1)
+    full_rows(np.zeros((2, 2), np.int32), np.zeros((1, 5), np.int32), z, 0.9)
+    hartley_monomials(p)
     order, starts, grid = point_grid(p, 8.0, 1024)
     grid_nearest(p, order, starts, *grid, p, 2.5)
     P3, I3 = np.zeros((1, 3)), np.eye(3)

@@ -36,6 +36,7 @@ __all__ = [
     "normalize_conic",
     "conic_from_ellipse",
     "ellipse_from_conic",
+    "ellipse_params_sym",
     "conic_from_circle",
     "fit_ellipse_direct",
     "direct_fit_scatter",
@@ -261,19 +262,39 @@ def ellipse_from_conic(C) -> Ellipse:
     C = normalize_conic(C)
     # on plain floats (this runs for every ellipse hypothesis the detector validates)
     (p, q, d), (_, r, e), (_, _, f) = C.tolist()
+    status, cx, cy, a, b, angle = ellipse_params_sym(p, q, r, d, e, f)
+    if status == 1:
+        raise ValueError("conic is not an ellipse (hyperbola, parabola or degenerate)")
+    if status == 2:
+        raise ValueError("conic is an imaginary or degenerate (point) ellipse")
+    return Ellipse(center=(cx, cy), axes=(a, b), angle=angle)
+
+
+def ellipse_params_sym(p: float, q: float, r: float, d: float, e: float, f: float) -> tuple[int, float, float, float, float, float]:
+    """Centre, semi-axes and major-axis direction of the normalised conic
+    ``[[p, q, d], [q, r, e], [d, e, f]]`` (:func:`normalize_conic`), on plain
+    floats (:func:`ellipse_from_conic`'s arithmetic; the detector's compiled
+    ellipse validation runs the same function, :mod:`arstream.kernels`).
+
+    Returns
+    -------
+    (status, cx, cy, a, b, angle): ``status`` 0 for a real ellipse (``a >= b > 0``,
+    ``angle`` of the major axis, not yet wrapped to ``(-pi/2, pi/2]``), 1 for a
+    hyperbola, parabola or degenerate conic, 2 for an imaginary or point
+    ellipse (the other values are then 0).
+    """
     w0, w1, vx, vy = eigh_sym2(p, q, r)  # w0 smallest -> major axis along (vx, vy)
     if w1 <= 0 or w0 <= 1e-13 * w1:
-        raise ValueError("conic is not an ellipse (hyperbola, parabola or degenerate)")
+        return 1, 0.0, 0.0, 0.0, 0.0, 0.0
     det = p * r - q * q  # > 0 here (both eigenvalues positive)
     cx = (q * e - r * d) / det  # the centre: [[p, q], [q, r]] c = -(d, e)
     cy = (q * d - p * e) / det
     f0 = f + (d * cx + e * cy)  # value at the centre
     if f0 >= -1e-15:
-        raise ValueError("conic is an imaginary or degenerate (point) ellipse")
+        return 2, 0.0, 0.0, 0.0, 0.0, 0.0
     a = math.sqrt(-f0 / w0)
     b = math.sqrt(-f0 / w1)
-    angle = math.atan2(vy, vx)  # (Ellipse wraps the axis's direction to (-pi/2, pi/2])
-    return Ellipse(center=(cx, cy), axes=(a, b), angle=angle)
+    return 0, cx, cy, a, b, math.atan2(vy, vx)
 
 
 def direct_fit_scatter(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -768,3 +768,174 @@ def test_component_stats_are_opencvs():
             if st[0, cv2.CC_STAT_AREA]:
                 np.testing.assert_array_equal(mine[0], st[0])
     assert total > 500  # many components, of all shapes
+
+
+def test_compiled_line_fits_are_fit_line():
+    # kernels.fit_lines (the detector's final fit of its line groups, all at
+    # once) against geometry.lines.fit_line of each group: the line, its
+    # uncertainties and its extreme points; too few or coincident points give NaN
+    from arstream import kernels
+    from geometry.lines import fit_line
+
+    rng = np.random.default_rng(12)
+    P = rng.uniform(0, 1280, (3000, 2))
+    groups = []
+    for k in range(60):
+        n = int(rng.integers(2, 80))
+        th, c = rng.uniform(0, np.pi), rng.uniform(0, 1280, 2)
+        t = rng.uniform(-300, 300, n)
+        pts = c + t[:, None] * [np.cos(th), np.sin(th)] + rng.normal(0, rng.uniform(0, 2), n)[:, None] * [-np.sin(th), np.cos(th)]
+        idx = rng.choice(len(P), n, replace=False)
+        P[idx] = pts
+        groups.append(idx)
+    groups += [np.array([5]), np.array([], np.int64)]  # one point, none
+    P[[7, 8, 9]] = [100.0, 200.0]
+    groups.append(np.array([7, 8, 9]))  # coincident
+    offsets = np.cumsum([0] + [len(g) for g in groups])
+    line, rms, sig_n, sig_a, ends, length = kernels.fit_lines(P, np.concatenate(groups).astype(np.int64), offsets)
+    for k, g in enumerate(groups[:60]):
+        f = fit_line(P[g])
+        s = np.sign(line[k] @ f.line)  # (either orientation of the normal)
+        np.testing.assert_allclose(s * line[k], f.line, rtol=0, atol=1e-12 * 1280)
+        assert abs(rms[k] - f.rms) <= 1e-9 * (1 + f.rms)
+        assert sig_n[k] == pytest.approx(f.normal_sigma, rel=1e-9, abs=1e-12) and sig_a[k] == pytest.approx(f.angle_sigma, rel=1e-9, abs=1e-15)
+        t = P[g] @ [-line[k, 1], line[k, 0]]
+        assert ends[k, 0] == np.argmin(t) and ends[k, 1] == np.argmax(t) and length[k] == pytest.approx(np.ptp(t), abs=1e-9)
+    assert np.isnan(line[60:]).all() and np.isnan(rms[60:]).all()
+
+
+def test_compiled_frame_ellipse_is_ellipse_from_conic():
+    # kernels.frame_ellipse (a hypothesis of the ellipse search, a conic in
+    # normalised coordinates, as an ellipse in frame pixels) against
+    # geometry.conics.ellipse_from_conic of the pulled-back conic, with the
+    # non-ellipses it must refuse (status 1: hyperbola, parabola, zero, NaN;
+    # 2: imaginary or a point)
+    from arstream import kernels
+    from geometry.conics import conic_from_ellipse, ellipse_from_conic
+
+    rng = np.random.default_rng(21)
+    for _ in range(300):
+        s, m, sw = rng.uniform(0.002, 0.05), rng.uniform(0, 640, 2), rng.uniform(1, 3)
+        T = np.array([[s / sw, 0.0, -s * m[0]], [0.0, s / sw, -s * m[1]], [0.0, 0.0, 1.0]])  # frame -> q
+        a = rng.uniform(20, 600)  # (the shapes the search validates: b / a in 0.1-0.85)
+        e = Ellipse(tuple(rng.uniform(0, 1280, 2)), (a, a * rng.uniform(0.1, 0.85)), rng.uniform(-1.5, 1.5))
+        Ti = np.linalg.inv(T)
+        Cq = Ti.T @ conic_from_ellipse(e) @ Ti
+        coef = np.array([Cq[0, 0], 2 * Cq[0, 1], Cq[1, 1], 2 * Cq[0, 2], 2 * Cq[1, 2], Cq[2, 2]]) * rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 10)
+        status, cx, cy, a, b, ang = kernels.frame_ellipse(coef, T)
+        ref = ellipse_from_conic(T.T @ np.array([[coef[0], coef[1] / 2, coef[3] / 2], [coef[1] / 2, coef[2], coef[4] / 2], [coef[3] / 2, coef[4] / 2, coef[5]]]) @ T)
+        got = Ellipse((cx, cy), (a, b), ang)
+        assert status == 0
+        # (the same arithmetic after the pull-back, whose sums run in another order)
+        np.testing.assert_allclose(got.center, ref.center, rtol=0, atol=1e-9 * ref.axes[0])
+        np.testing.assert_allclose(got.axes, ref.axes, rtol=1e-9)
+        assert abs(np.sin(got.angle - ref.angle)) < 1e-9
+        np.testing.assert_allclose(got.center, e.center, rtol=0, atol=1e-6 * e.axes[0])
+        np.testing.assert_allclose(got.axes, e.axes, rtol=1e-6)
+    T = np.eye(3)
+    for coef, status in [
+        ([1.0, 0.0, -1.0, 0.0, 0.0, -1.0], 1),  # hyperbola
+        ([0.0, 0.0, 1.0, -1.0, 0.0, 0.0], 1),  # parabola
+        ([1.0, 0.0, 1.0, 0.0, 0.0, 1.0], 2),  # imaginary
+        ([1.0, 0.0, 1.0, 0.0, 0.0, 0.0], 2),  # a point
+        ([0.0] * 6, 1),
+        ([np.nan] * 6, 1),
+    ]:
+        assert kernels.frame_ellipse(np.array(coef), T)[0] == status, coef
+        if status and np.isfinite(coef).all() and any(coef):
+            with pytest.raises(ValueError, match="not an ellipse" if status == 1 else "imaginary"):
+                ellipse_from_conic(np.array([[coef[0], coef[1] / 2, coef[3] / 2], [coef[1] / 2, coef[2], coef[4] / 2], [coef[3] / 2, coef[4] / 2, coef[5]]]))
+
+
+def test_compiled_ellipse_search_set_up_matches_numpy():
+    # kernels.hartley_monomials (normalised points and their monomials) and
+    # kernels.label_scatters (the scatter matrix of each arc's free points)
+    # against the numpy expressions they replace
+    from arstream import kernels
+
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(0, [640, 360], (2500, 2))
+    q, D, mx, my, s = kernels.hartley_monomials(pts)
+    m = pts.mean(axis=0)
+    s_ref = np.sqrt(2.0) / np.mean(np.hypot(*(pts - m).T))
+    assert abs(mx - m[0]) < 1e-12 * 640 and abs(my - m[1]) < 1e-12 * 640 and s == pytest.approx(s_ref, rel=1e-13)
+    np.testing.assert_allclose(q, (pts - m) * s_ref, rtol=0, atol=1e-12)
+    x, y = q.T
+    np.testing.assert_array_equal(D, np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)]))
+    assert abs(np.mean(np.hypot(x, y)) - np.sqrt(2)) < 1e-12
+    labels = rng.integers(0, 12, len(pts)).astype(np.int32)
+    free = rng.random(len(pts)) > 0.3
+    slot_of = np.full(12, -1, np.int64)
+    slot_of[[7, 2, 9, 0]] = [0, 1, 2, 3]
+    S = kernels.label_scatters(D, labels, free, slot_of)
+    assert S.shape == (4, 6, 6)
+    for k, lab in enumerate([7, 2, 9, 0]):
+        Dk = D[free & (labels == lab)]
+        np.testing.assert_allclose(S[k], Dk.T @ Dk, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(S[k], S[k].T)
+
+
+def test_compiled_full_rows_match_numpy():
+    # kernels.full_rows (the screen-graphics test: rows of a component's box
+    # that it fills) against the numpy rows count it replaces
+    from arstream import kernels
+
+    rng = np.random.default_rng(8)
+    seen = 0
+    for t in range(40):
+        img = (cv2.GaussianBlur(rng.random((90, 160)).astype(np.float32), (0, 0), rng.uniform(0.5, 4)) > rng.uniform(0.3, 0.7)).astype(np.uint8) * 255
+        if t % 4 == 0:
+            img[5:12, 20:90] = 255  # a solid box
+        n, lab = cv2.connectedComponents(img, connectivity=4)
+        st = kernels.component_stats(lab, n)
+        ks = np.arange(1, n, dtype=np.int64)
+        got = kernels.full_rows(lab, st, ks, 0.9)
+        for k, (cnt, first, last) in zip(ks, got):
+            x, y, bw, bh, _ = st[k]
+            full = np.flatnonzero(np.count_nonzero(lab[y : y + bh, x : x + bw] == k, axis=1) >= 0.9 * bw)
+            assert cnt == len(full)
+            assert (first, last) == ((full[0], full[-1]) if len(full) else (-1, -1))
+            seen += len(full) >= 2
+    assert seen > 20
+
+
+def test_compiled_settling_of_line_points_matches_numpy():
+    # kernels.settle_points (the line points with grass beside them, in chains
+    # long enough; their mask and frame coordinates) against the sequence of
+    # numpy steps and kernels it replaces
+    from arstream import kernels
+
+    rng = np.random.default_rng(2)
+    w, h, wc, hc = 640, 360, 320, 180
+    for t in range(20):
+        pts = np.vstack([rng.uniform(0, [w, h], (300, 2))] + [c + np.outer(np.linspace(0, rng.uniform(2, 80), 60), [np.cos(a), np.sin(a)]) for c, a in zip(rng.uniform(0, [w, h], (8, 2)), rng.uniform(0, np.pi, 8))])
+        pts = np.clip(pts, 0, [w - 1, h - 1])
+        nrm = rng.normal(size=pts.shape)
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+        mask = (cv2.GaussianBlur(rng.random((90, 160)).astype(np.float32), (0, 0), 3) > 0.45).astype(np.uint8) * 255
+        fx, fy = 160 / w, 90 / h
+        grid = np.full((hc, wc), -1, np.int32)
+        lm = np.full((h, w), 7, np.uint8)
+        sel, labels, full = kernels.settle_points(pts, nrm, 9.5, mask, fx, fy, wc / w, hc / h, grid, 5.0, lm, 2.0, 0.5, 2.0, 0.5)
+        keep = kernels.beside_grass(pts, nrm, 9.5, mask, fx, fy)
+        idx = np.flatnonzero(keep)
+        cxi = np.clip((pts[idx, 0] * (wc / w)).astype(np.int64), 0, wc - 1)
+        cyi = np.clip((pts[idx, 1] * (hc / h)).astype(np.int64), 0, hc - 1)
+        lab, ex, ey = kernels.chains(cxi, cyi, 1, np.full((hc, wc), -1, np.int32))
+        k2 = np.maximum(ex, ey) + 1 >= 5.0
+        np.testing.assert_array_equal(sel, idx[k2])
+        np.testing.assert_array_equal(labels, lab[k2])
+        np.testing.assert_array_equal(full, pts[sel] * 2.0 + 0.5)
+        ref = np.zeros((h, w), np.uint8)
+        ref[np.clip(np.rint(pts[sel, 1]).astype(int), 0, h - 1), np.clip(np.rint(pts[sel, 0]).astype(int), 0, w - 1)] = 255
+        np.testing.assert_array_equal(lm, ref)
+        assert (grid == -1).all() and 0 < len(sel) < len(pts)
+
+
+def test_ellipse_search_refuses_a_rotated_working_frame():
+    from arstream.detect.ellipses import find_ellipses
+
+    pts = np.random.default_rng(0).uniform(0, 100, (50, 2))
+    A = np.array([[2.0, 0.1, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
+    with pytest.raises(ValueError, match="scale and shift each axis"):
+        find_ellipses(pts, np.tile([1.0, 0.0], (50, 1)), (100, 100), A, full_size=(200, 200), visible=None, grid_buf=np.full((100, 100), -1, np.int32))

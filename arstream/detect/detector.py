@@ -8,8 +8,7 @@ import cv2
 import numpy as np
 
 from arstream.imaging import shrink
-from arstream.kernels import beside_grass, chains, cut_by_line, grid_clear, mask_at, warm_up_async
-from geometry.lines import fit_line
+from arstream.kernels import chains, cut_by_line, fit_lines, grid_clear, mask_at, settle_points, warm_up_async
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
@@ -171,13 +170,6 @@ class Detector:
         keep = ext_y + 3 >= min_rows  # the dilated chain: a row more at each end
         return RidgePoints(rp.pts[keep], rp.nrm[keep], rp.contrast[keep], rp.n_candidates)
 
-    def _to_full(self, p: np.ndarray) -> np.ndarray:
-        A = self.A_wf
-        out = np.empty_like(p)
-        out[:, 0] = p[:, 0] * A[0, 0] + A[0, 2]
-        out[:, 1] = p[:, 1] * A[1, 1] + A[1, 2]
-        return out
-
     def _check(self, image) -> None:
         if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
             raise ValueError(
@@ -283,26 +275,21 @@ class Detector:
             if len(pts) > n0:  # on the fine pass's smoothed luma
                 shift, _ = band_centres(self._rbufs["blur"], pts[n0:], nrm[n0:], reach=int(w / ws * 11) // 2 + 5)
                 pts[n0:] += shift[:, None] * nrm[n0:]
-        # a painted line has grass beside it; a white kit has a shirt above and
-        # legs below (sampled on the tiny grass mask, beyond the line's width)
-        if len(pts):
-            raw = g.raw
-            keep = beside_grass(pts, np.ascontiguousarray(nrm, np.float64), 0.5 * kf + 4.0, raw, raw.shape[1] / w, raw.shape[0] / h)
-            if not keep.all():  # one side may be the boards (the far touchline)
-                pts, nrm = pts[keep], nrm[keep]
+        # a painted line has grass beside it, on one side at least (the other may
+        # be the boards: the far touchline); a white kit has a shirt above and legs
+        # below (sampled on the tiny grass mask, beyond the line's width). Then
         # connected chains of line points (coarse raster: gaps of a few pixels
-        # bridge); blobs (kits, the ball, a crowd seen through) are dropped
-        cxi = np.clip((pts[:, 0] * (wc / w)).astype(np.int64), 0, wc - 1)
-        cyi = np.clip((pts[:, 1] * (hc / h)).astype(np.int64), 0, hc - 1)
-        labels, ext_x, ext_y = chains(cxi, cyi, 1, self._chain_grid)
-        keep = np.maximum(ext_x, ext_y) + 1 >= max(5, 0.008 * wc)
-        if not keep.all():
-            pts, nrm, labels = pts[keep], nrm[keep], labels[keep]
+        # bridge); blobs (kits, the ball, a crowd seen through) are dropped. One
+        # compiled pass, which also draws the line mask and maps the points to the frame
+        raw = g.raw
         lm = self._linemask_small
-        lm[:] = 0
-        if len(pts):
-            lm[np.clip(np.rint(pts[:, 1]).astype(np.intp), 0, h - 1), np.clip(np.rint(pts[:, 0]).astype(np.intp), 0, w - 1)] = 255
-        line_points = self._to_full(pts)
+        A = self.A_wf
+        sel, labels, line_points = settle_points(
+            pts, np.ascontiguousarray(nrm, np.float64), 0.5 * kf + 4.0, raw, raw.shape[1] / w, raw.shape[0] / h,
+            wc / w, hc / h, self._chain_grid, float(max(5, 0.008 * wc)), lm, A[0, 0], A[0, 2], A[1, 1], A[1, 2],
+        )  # fmt: skip
+        if len(sel) < len(pts):
+            pts, nrm = pts[sel], nrm[sel]
         t2 = time.perf_counter()
         timings["line_pixels"] = 1e3 * (t2 - t1)
         # lazy: a private copy of the pitch mask (it may run after the next frame's
@@ -340,23 +327,24 @@ class Detector:
         groups, used = group_lines(
             pts, nrm, (w, h), labels=labels, min_length=self.min_line_length / self.factor, max_gap=max(16.0, 0.2 * w), min_points=12
         )
+        # each group's total-least-squares line in frame pixels (geometry.lines.fit_line
+        # of each, in one compiled pass)
         lines = []
-        for grp in groups:
-            P = line_points[grp.idx]
-            fit = fit_line(P)
-            t = P @ fit.direction
-            i0, i1 = int(np.argmin(t)), int(np.argmax(t))
-            lines.append(
-                DetectedLine(
-                    line=fit.line,
-                    endpoints=np.array([P[i0], P[i1]]),
-                    points=P,
-                    length=float(t[i1] - t[i0]),
-                    normal_sigma=fit.normal_sigma,
-                    angle_sigma=fit.angle_sigma,
-                    rms=fit.rms,
+        if groups:
+            offsets = np.zeros(len(groups) + 1, np.int64)
+            np.cumsum([len(g.idx) for g in groups], out=offsets[1:])
+            L, rms, sig_n, sig_a, ends, length = fit_lines(line_points, np.concatenate([g.idx for g in groups]), offsets)
+            fitted = np.isfinite(L[:, 0])  # (a group's points never coincide: it spans min_line_length)
+            if not fitted.all():
+                groups = [g for g, ok in zip(groups, fitted) if ok]
+                L, rms, sig_n, sig_a, ends, length = L[fitted], rms[fitted], sig_n[fitted], sig_a[fitted], ends[fitted], length[fitted]
+            for k, grp in enumerate(groups):
+                P = line_points[grp.idx]
+                lines.append(
+                    DetectedLine(
+                        line=L[k], endpoints=P[ends[k]], points=P, length=float(length[k]), normal_sigma=float(sig_n[k]), angle_sigma=float(sig_a[k]), rms=float(rms[k])
+                    )
                 )
-            )
         t3 = time.perf_counter()
         # short lines may be flat stretches of a big ellipse: their points stay
         # available to the ellipse search, which has the last word on them
@@ -391,6 +379,7 @@ class Detector:
             visible=visible,
             is_arc=is_arc,
             grid_buf=scratch,
+            pts_full=line_points[free],
             seed=seed,
             group=group[free],
             max_ellipses=self.max_ellipses,

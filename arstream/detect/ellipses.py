@@ -25,10 +25,13 @@ Every ellipse found removes its inliers; the search repeats for the next one.
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
-from arstream.kernels import chains, conic_band, conic_counts, direct_fits, ellipse_params, perimeter_bins, refine_conic
-from geometry.conics import Ellipse, ellipse_from_conic
+from arstream.kernels import chains, conic_band, conic_counts, direct_fits, ellipse_params, frame_ellipse, hartley_monomials, label_scatters, perimeter_bins, refine_conic
+from geometry.conics import Ellipse
 
 __all__ = ["EllipseCandidate", "find_ellipses"]
 
@@ -40,11 +43,6 @@ class EllipseCandidate:
     def __init__(self, ellipse, conic, idx, rms, coverage, score, kind="circle"):
         self.ellipse, self.conic, self.idx, self.rms = ellipse, conic, idx, rms
         self.coverage, self.score, self.kind = coverage, score, kind
-
-
-def _monomials(q: np.ndarray) -> np.ndarray:
-    x, y = q[:, 0], q[:, 1]
-    return np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
 
 
 class _PerimeterBins:
@@ -101,6 +99,7 @@ def find_ellipses(
     visible,
     is_arc=None,
     grid_buf: np.ndarray,
+    pts_full: np.ndarray | None = None,
     labels: np.ndarray | None = None,
     seed: np.ndarray | None = None,
     group: np.ndarray | None = None,
@@ -119,13 +118,16 @@ def find_ellipses(
     ----------
     pts, nrm : (N, 2) working-pixel ridge centres and unit normals (curved points only)
     work_size : (w, h) of the working image
-    A_wf : (3, 3) affine map from working pixels to frame pixels (homogeneous)
+    A_wf : (3, 3) map from working pixels to frame pixels (homogeneous): a scale
+        and a shift per axis
     full_size : (W, H) frame size
     visible : callable, frame pixels (N, 2) -> (N,) bool: where a marking could be
         seen (in the frame, on the pitch)
     is_arc : callable (Ellipse, support (N, 2)) -> bool, optional: whether the
         support is an arc cut off by a straight line (a penalty arc)
     grid_buf : (h, w) int32 scratch, -1 on entry and on return
+    pts_full : (N, 2) the points in frame pixels (``A_wf`` applied), optional
+        (the caller's copy; made here by default)
     labels : (N,) int, optional, connected chain of each point (0: none); by default
         the points' chains, linked within 3 px (:func:`arstream.kernels.chains`)
     seed : (N,) bool, optional: points that may seed hypotheses (arcs); the
@@ -151,6 +153,8 @@ def find_ellipses(
     if n < min_points:
         return []
     nrm = np.ascontiguousarray(nrm, np.float64)
+    if pts_full is None:
+        pts_full = pts @ A_wf[:2, :2].T + A_wf[:2, 2]
     w, h = work_size
     W, H = full_size
     sw = float(A_wf[0, 0])  # frame pixels per working pixel
@@ -175,18 +179,19 @@ def find_ellipses(
                 labels[g] = n_cc + group[g]
     nlab = int(labels.max()) + 1
     n_cc = nlab if n_cc is None else n_cc
-    # normalised coordinates (Hartley)
-    m = pts.mean(axis=0)
-    s = np.sqrt(2.0) / max(float(np.mean(np.hypot(pts[:, 0] - m[0], pts[:, 1] - m[1]))), 1e-9)
-    q = (pts - m) * s
-    Tn = np.array([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
-    Tfq = Tn @ np.linalg.inv(A_wf)  # frame pixels -> normalised coordinates
-    Tqf = np.linalg.inv(Tfq)  # and back
-    Dall = _monomials(q)
+    # normalised coordinates (Hartley) and their monomials
+    q, Dall, mx, my, s = hartley_monomials(np.ascontiguousarray(pts, np.float64))
+    m = np.array([mx, my])
+    # frame pixels -> normalised coordinates and back (A_wf: a scale and shift per axis)
+    (ax, r01, bx), (r10, ay, by) = A_wf[:2].tolist()
+    if r01 or r10:
+        raise ValueError("A_wf must scale and shift each axis (no rotation or shear)")
+    Tfq = np.array([[s / ax, 0.0, -s * (bx / ax + mx)], [0.0, s / ay, -s * (by / ay + my)], [0.0, 0.0, 1.0]])
+    Tqf = np.array([[ax / s, 0.0, ax * mx + bx], [0.0, ay / s, ay * my + by], [0.0, 0.0, 1.0]])
     free = np.ones(n, bool)
     out: list[EllipseCandidate] = []
-    rms_scale = float(np.sqrt(abs(np.linalg.det(A_wf[:2, :2]))))  # working -> frame pixels, for distances
-    ctx = (q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, (W, H), visible, is_arc, sw, Tfq, rms_scale)
+    rms_scale = math.sqrt(abs(ax * ay))  # working -> frame pixels, for distances
+    ctx = (q, nrm, pts_full, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, (W, H), visible, is_arc, sw, Tfq, rms_scale)
     priors = [np.asarray(C, float) for C in (prior or ())]
     for _round in range(max_ellipses):
         accepted = None
@@ -222,42 +227,51 @@ def _search(free, labels, nlab, n_cc, Dall, ctx, *, first):
     straight = [int(k) for k in order if k >= n_cc][:4]
     if not curved or arc_n[curved[0]] < (20 if first else 40):
         return None
-    arcs = curved + straight
-    Sarc = np.empty((len(arcs), 6, 6))
-    for i, k in enumerate(arcs):
-        Dk = Dall[free & (labels == k)]
-        Sarc[i] = Dk.T @ Dk
+    slot_of = np.full(nlab, -1, np.int64)
+    slot_of[curved + straight] = np.arange(len(curved) + len(straight))
+    Sarc = label_scatters(Dall, labels, free, slot_of)
     fidx = np.flatnonzero(free)
     # 2. hypotheses, cheapest first: single arcs and pairs, then triples
     # (the scatter of a union of arcs is the sum of their scatters)
-    nc, ns = len(curved), len(straight)
-    if first:
-        top = min(nc, 5)
-        st1 = [(i,) for i in range(nc)] + [(i, j) for i in range(nc) for j in range(i + 1, nc)]
-        st1 += [(i, nc + j) for i in range(min(nc, 3)) for j in range(ns)]
-        # a circle broken into many arcs (players, the halfway line)
-        st2 = [(i, j, k) for i in range(top) for j in range(i + 1, top) for k in range(j + 1, top)]
-        stages = [st1, st2]
-    else:  # later rounds look for arcs (penalty arcs): single pieces
-        stages = [[(i,) for i in range(min(nc, 4))]]
-    na = len(arcs)
     accepted = None
-    for combos in stages:
-        if not combos:
-            continue
-        sel_m = np.zeros((len(combos), na))
-        for r, cmb in enumerate(combos):
-            sel_m[r, list(cmb)] = 1.0
+    for sel_m in _combinations(len(curved), len(straight), first):
         accepted = _try(np.einsum("hk,kij->hij", sel_m, Sarc), fidx, ctx)
         if accepted is not None:
             break
     return accepted
 
 
+@functools.lru_cache(maxsize=None)
+def _combinations(nc: int, ns: int, first: bool) -> tuple[np.ndarray, ...]:
+    """The search's stages of hypotheses over ``nc`` curved arcs then ``ns``
+    straight stretches: per stage, a (hypotheses, nc + ns) 0/1 matrix of the
+    arcs each combines. First round: single curved arcs, pairs, a curved arc
+    with a straight stretch; then triples of the 5 largest curved arcs (a
+    circle broken into many arcs by players and the halfway line). Later
+    rounds look for penalty arcs: the 4 largest curved arcs alone."""
+    if first:
+        top = min(nc, 5)
+        st1 = [(i,) for i in range(nc)] + [(i, j) for i in range(nc) for j in range(i + 1, nc)]
+        st1 += [(i, nc + j) for i in range(min(nc, 3)) for j in range(ns)]
+        st2 = [(i, j, k) for i in range(top) for j in range(i + 1, top) for k in range(j + 1, top)]
+        stages = [st1, st2]
+    else:
+        stages = [[(i,) for i in range(min(nc, 4))]]
+    out = []
+    for combos in stages:
+        if combos:
+            sel_m = np.zeros((len(combos), nc + ns))
+            for r, cmb in enumerate(combos):
+                sel_m[r, list(cmb)] = 1.0
+            sel_m.flags.writeable = False
+            out.append(sel_m)
+    return tuple(out)
+
+
 def _try(S, fidx, ctx):
     """Fit, screen, score and refine a stack of hypotheses (scatter matrices
     (K, 6, 6)); the first that validates, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq, _ = ctx
+    q, nrm, _, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, size, visible, is_arc, sw, Tfq, _ = ctx
     coef, valid = direct_fits(np.ascontiguousarray(S, np.float64))
     # plausibility in working pixels before any scoring
     a, b, ang, ok = ellipse_params(coef, float(s), float(m[0]), float(m[1]))
@@ -285,7 +299,7 @@ def _try(S, fidx, ctx):
 def _accept(coef0, fidx, ctx, *, first_band=None):
     """Refine a hypothesis (normalised coefficients (6,)) on the free points
     ``fidx`` and validate it in frame pixels: an EllipseCandidate, or None."""
-    q, nrm, pts, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, A_wf, size, visible, is_arc, sw, Tfq, rms_scale = ctx
+    q, nrm, pts_full, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, size, visible, is_arc, sw, Tfq, rms_scale = ctx
     cand = _refine(coef0, q, nrm, fidx, s, tol, first_band)
     if cand is None:
         return None
@@ -293,21 +307,16 @@ def _accept(coef0, fidx, ctx, *, first_band=None):
     if rms_w > max_rms or len(idx) < min_points:
         return None
     # the answer in frame pixels: the conic pulled back through frame -> normalised coordinates
-    try:
-        ell = ellipse_from_conic(Tfq.T @ _coef_to_matrix(coef_n) @ Tfq)
-    except ValueError:
+    status, cx, cy, a, b, angle = frame_ellipse(coef_n, Tfq)
+    if status:
         return None
-    P_full = pts[idx] @ A_wf[:2, :2].T + A_wf[:2, 2]
+    ell = Ellipse(center=(cx, cy), axes=(a, b), angle=angle)
+    P_full = pts_full[idx]
     rms = rms_w * rms_scale
     ok, cov, sc, kind = _validate(
         ell, P_full, rms, size, visible, is_arc, s_full=sw, min_points=min_points, min_coverage=min_coverage, min_visible=min_visible, max_rms=max_rms
     )
     return EllipseCandidate(ell, ell.conic, idx, rms, cov, sc, kind) if ok else None
-
-
-def _coef_to_matrix(c: np.ndarray) -> np.ndarray:
-    A, B, C, D, E, F = c
-    return np.array([[A, B / 2, D / 2], [B / 2, C, E / 2], [D / 2, E / 2, F]])
 
 
 def _conic_to_coef(C: np.ndarray) -> np.ndarray:

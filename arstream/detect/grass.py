@@ -17,7 +17,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.kernels import component_stats
+from arstream.kernels import component_stats, full_rows
 
 __all__ = ["GrassModel", "GrassResult", "grass_masks"]
 
@@ -128,16 +128,18 @@ def _graphics(raw: np.ndarray, bufs: dict) -> np.ndarray | None:
     inv = cv2.bitwise_not(raw, dst=bufs["prior"])
     ng, gl, gst = _components(inv, 4)
     out = None
-    for k in np.flatnonzero((gst[1:, cv2.CC_STAT_WIDTH] >= 0.1 * w) & (gst[1:, cv2.CC_STAT_WIDTH] <= 0.6 * w) & (gst[1:, cv2.CC_STAT_AREA] >= 0.002 * h * w)) + 1:
-        x, y, bw, bh, _ = gst[k]
-        rows = np.count_nonzero(gl[y : y + bh, x : x + bw] == k, axis=1)
-        full = np.flatnonzero(rows >= 0.9 * bw)
-        if len(full) < 2 or full[-1] - full[0] + 1 > 0.25 * h or bw < 2 * len(full):
+    ks = np.flatnonzero((gst[1:, cv2.CC_STAT_WIDTH] >= 0.1 * w) & (gst[1:, cv2.CC_STAT_WIDTH] <= 0.6 * w) & (gst[1:, cv2.CC_STAT_AREA] >= 0.002 * h * w)) + 1
+    if not len(ks):
+        return None
+    # per candidate: how many of its box's rows it fills (90 %), the first and the last
+    for k, (n_full, first, last) in zip(ks.tolist(), full_rows(gl, gst, ks, 0.9).tolist()):
+        if n_full < 2 or last - first + 1 > 0.25 * h or gst[k, cv2.CC_STAT_WIDTH] < 2 * n_full:
             continue
         if out is None:
             out = bufs["graphics"]
             out[:] = 0
-        out[y + full[0] : y + full[-1] + 1, x : x + bw] = 255
+        x, y, bw = int(gst[k, 0]), int(gst[k, 1]), int(gst[k, 2])
+        out[y + first : y + last + 1, x : x + bw] = 255
     return out
 
 
