@@ -935,7 +935,8 @@ def test_compiled_settling_of_line_points_matches_numpy():
 def test_ellipse_search_refuses_a_rotated_working_frame():
     from arstream.detect.ellipses import find_ellipses
 
-    pts = np.random.default_rng(0).uniform(0, 100, (50, 2))
-    A = np.array([[2.0, 0.1, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
-    with pytest.raises(ValueError, match="scale and shift each axis"):
-        find_ellipses(pts, np.tile([1.0, 0.0], (50, 1)), (100, 100), A, full_size=(200, 200), visible=None, grid_buf=np.full((100, 100), -1, np.int32))
+    for n in (50, 5):  # (also with too few points to search)
+        pts = np.random.default_rng(0).uniform(0, 100, (n, 2))
+        A = np.array([[2.0, 0.1, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
+        with pytest.raises(ValueError, match="scale and shift each axis"):
+            find_ellipses(pts, np.tile([1.0, 0.0], (n, 1)), (100, 100), A, full_size=(200, 200), visible=None, grid_buf=np.full((100, 100), -1, np.int32))

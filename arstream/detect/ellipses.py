@@ -149,6 +149,9 @@ def find_ellipses(
     -------
     list of EllipseCandidate (ellipse and conic in frame pixels; ``idx`` into ``pts``)
     """
+    (ax, r01, bx), (r10, ay, by) = np.asarray(A_wf, np.float64)[:2].tolist()
+    if r01 or r10:
+        raise ValueError("A_wf must scale and shift each axis (no rotation or shear)")
     n = len(pts)
     if n < min_points:
         return []
@@ -183,9 +186,6 @@ def find_ellipses(
     q, Dall, mx, my, s = hartley_monomials(np.ascontiguousarray(pts, np.float64))
     m = np.array([mx, my])
     # frame pixels -> normalised coordinates and back (A_wf: a scale and shift per axis)
-    (ax, r01, bx), (r10, ay, by) = A_wf[:2].tolist()
-    if r01 or r10:
-        raise ValueError("A_wf must scale and shift each axis (no rotation or shear)")
     Tfq = np.array([[s / ax, 0.0, -s * (bx / ax + mx)], [0.0, s / ay, -s * (by / ay + my)], [0.0, 0.0, 1.0]])
     Tqf = np.array([[ax / s, 0.0, ax * mx + bx], [0.0, ay / s, ay * my + by], [0.0, 0.0, 1.0]])
     free = np.ones(n, bool)
