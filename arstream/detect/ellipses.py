@@ -157,10 +157,10 @@ def find_ellipses(
         return []
     nrm = np.ascontiguousarray(nrm, np.float64)
     if pts_full is None:
-        pts_full = pts @ A_wf[:2, :2].T + A_wf[:2, 2]
+        pts_full = pts * (ax, ay) + (bx, by)
     w, h = work_size
     W, H = full_size
-    sw = float(A_wf[0, 0])  # frame pixels per working pixel
+    sw = ax  # frame pixels per working pixel
     # 1. arcs: the caller's chain labels, or the points' own chains
     n_cc = None
     if labels is None:
@@ -184,7 +184,7 @@ def find_ellipses(
     n_cc = nlab if n_cc is None else n_cc
     # normalised coordinates (Hartley) and their monomials
     q, Dall, mx, my, s = hartley_monomials(np.ascontiguousarray(pts, np.float64))
-    m = np.array([mx, my])
+    m = (mx, my)
     # frame pixels -> normalised coordinates and back (A_wf: a scale and shift per axis)
     Tfq = np.array([[s / ax, 0.0, -s * (bx / ax + mx)], [0.0, s / ay, -s * (by / ay + my)], [0.0, 0.0, 1.0]])
     Tqf = np.array([[ax / s, 0.0, ax * mx + bx], [0.0, ay / s, ay * my + by], [0.0, 0.0, 1.0]])
@@ -274,7 +274,7 @@ def _try(S, fidx, ctx):
     q, nrm, _, s, m, tol, w, min_points, min_coverage, min_visible, max_rms, size, visible, is_arc, sw, Tfq, _ = ctx
     coef, valid = direct_fits(np.ascontiguousarray(S, np.float64))
     # plausibility in working pixels before any scoring
-    a, b, ang, ok = ellipse_params(coef, float(s), float(m[0]), float(m[1]))
+    a, b, ang, ok = ellipse_params(coef, s, *m)
     valid &= ok & (a > 0.05 * w) & (a < 1.5 * w) & (b > 0.012 * w) & (b < 0.85 * a) & (b > 0.05 * a) & (np.abs(ang) < np.radians(30))
     if not valid.any():
         return None
