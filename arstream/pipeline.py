@@ -20,6 +20,10 @@ PyAV releases the GIL while FFmpeg decodes and x264 encodes, so decode and
 encode overlap with the Python/OpenCV/GL work of the main thread and both
 cores are used. Audio packets of the input are demuxed by the decode thread
 and handed, in order, to the encode thread, which muxes them unchanged.
+These threads are the pipeline's parallelism: while it runs, OpenCV works on
+one thread (``Pipeline(cv_threads=1)``) and Mesa's llvmpipe draws on the
+main thread (:mod:`render.context`), rather than handing small jobs to
+pools of their own that would compete for the same two cores.
 
 Fast path (DESIGN.md section 4): frames of even size stay planar YUV 4:2:0
 from decoder to encoder. BGR is made once, lazily, for the stages that ask
@@ -1018,10 +1022,16 @@ class Pipeline:
     queue_size : int, frames between decode and the stages (offline)
     progress : callable(done, total), optional, called after each frame
     max_frames : int, optional, stop after this many decoded frames
+    cv_threads : int or None, OpenCV's worker threads while :meth:`run` runs
+        (its setting is restored after). Default 1: the pipeline's own threads
+        already keep the cores busy, and OpenCV's pool would only add
+        hand-overs between them (about 2 ms of CPU a 720p frame, see
+        bench/README.md). None leaves OpenCV's setting as it is.
     """
 
-    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None):
+    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, cv_threads: int | None = 1):
         self.source = source
+        self.cv_threads = cv_threads
         self.stages = list(stages)
         self.realtime = realtime
         self.progress = progress
@@ -1091,6 +1101,18 @@ class Pipeline:
             for s, h in old.items():
                 signal.signal(s, h)
 
+    @contextlib.contextmanager
+    def _opencv_threads(self):
+        if self.cv_threads is None:
+            yield
+            return
+        old = cv2.getNumThreads()
+        cv2.setNumThreads(self.cv_threads)
+        try:
+            yield
+        finally:
+            cv2.setNumThreads(old)
+
     # ---- stage plumbing
     def _push(self, items: list[Item], start: int = 0) -> None:
         for stage in self.stages[start:]:
@@ -1149,7 +1171,7 @@ class Pipeline:
         interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
         decoder = threading.Thread(target=self._decode, name="arstream-decode", daemon=True)
         failed = False
-        with self._signals(handle_signals):
+        with self._signals(handle_signals), self._opencv_threads():
             try:
                 decoder.start()
                 while self._signal is None:

@@ -7,6 +7,13 @@ among several with the ``GLCONTEXT_DEVICE_INDEX`` environment variable (read
 by glcontext), or point ``GLCONTEXT_LINUX_LIBEGL`` / ``GLCONTEXT_LINUX_LIBGL``
 at specific libraries.
 
+Mesa's llvmpipe rasterises on the thread that draws (``LP_NUM_THREADS=0``)
+unless the environment says otherwise: arstream's renderers draw small
+overlays beside other busy threads (decode, detection, x264), where
+llvmpipe's own raster threads only add hand-overs (in ``arstream process`` at
+720p, about 1 ms of CPU a frame; no slower alone, see bench/README.md).
+Mesa reads the variable once per process, when the first context is made.
+
 When no context can be made, :func:`create_context` raises
 :class:`GLContextError` whose message names the missing library and the
 Debian/Ubuntu packages that provide it.
@@ -59,6 +66,7 @@ def create_context(require: int = 330) -> moderngl.Context:
         OpenGL is older than ``require``. The message names the library and
         the Debian packages to install.
     """
+    os.environ.setdefault("LP_NUM_THREADS", "0")  # llvmpipe: rasterise on the drawing thread (module docstring)
     libegl = _find("EGL", "GLCONTEXT_LINUX_LIBEGL")
     if libegl is None:
         raise GLContextError(

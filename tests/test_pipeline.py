@@ -553,3 +553,33 @@ def test_a_bug_in_a_stage_is_one_line_and_the_outputs_are_finalised(small, tmp_p
     assert n == len(read_jsonl(cams)) == 6  # frames 0-5: the smoother held 6 and 7
     assert not os.path.exists(atomic_path(str(out)))
 
+
+
+@pytest.mark.parametrize("cv_threads", [1, None])
+def test_opencv_threads_during_a_run_and_restored_after(small, cv_threads):
+    """The pipeline runs OpenCV on one thread (its own threads use the cores) and
+    gives OpenCV its setting back afterwards, also when a stage fails;
+    ``cv_threads=None`` leaves the setting alone."""
+    from arstream.pipeline import Pipeline, Stage
+
+    seen = []
+
+    class Probe(Stage):
+        name = "probe"
+
+        def process(self, item):
+            seen.append(cv2.getNumThreads())
+            if item.index == 3:
+                raise RuntimeError("stage failed")
+            return [item]
+
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(2)
+    try:
+        with VideoSource(small / "clip.mp4") as src:
+            with pytest.raises(RuntimeError, match="stage failed"):
+                Pipeline(src, [Probe()], cv_threads=cv_threads).run(handle_signals=False)
+        assert seen == [1 if cv_threads == 1 else 2] * 4
+        assert cv2.getNumThreads() == 2
+    finally:
+        cv2.setNumThreads(before)

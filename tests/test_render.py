@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
 
 import cv2
 import numpy as np
@@ -39,6 +42,8 @@ from render import (
 from render.camera_gl import clip_from_world, pixels_from_clip, projection_from_K, radial_limit, view_from_Rt
 from render.compositor import composite_over
 from render.synthetic import main_camera, pitch_frame
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 W, H = 1280, 720
 WHITE = np.full((8, 8, 4), 255, np.uint8)  # an opaque white "logo": alpha is pure coverage
@@ -706,3 +711,24 @@ def test_refine_matte_keys_at_full_resolution_inside_the_rectangles():
     assert np.all(out[:12, :64] == 0)  # green, but not pitch
     assert np.all(out[:16, 64:] == 7)  # outside the rectangles: untouched
 
+
+
+@pytest.mark.parametrize("env, threads", [(None, 0), ("2", 2)])
+def test_llvmpipe_rasterises_on_the_drawing_thread_unless_told(env, threads):
+    """create_context sets Mesa's LP_NUM_THREADS to 0 when the environment does not
+    (llvmpipe then starts no raster threads); a value the user set is kept."""
+    code = (
+        "import os; from render.context import create_context; c = create_context()\n"
+        "names = [open(f'/proc/self/task/{t}/comm').read().strip() for t in os.listdir('/proc/self/task')]\n"
+        "print(c.info['GL_RENDERER'].split()[0], os.environ['LP_NUM_THREADS'], sum(n.startswith('llvmpipe-') for n in names))"
+    )
+    env_vars = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    if env is not None:
+        env_vars["LP_NUM_THREADS"] = env
+    out = subprocess.run([sys.executable, "-c", code], env=env_vars, cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    renderer, value, n = out.stdout.split()
+    assert value == str(threads)
+    if renderer != "llvmpipe":
+        pytest.skip(f"the raster threads are llvmpipe's; this context is {renderer}")
+    assert int(n) == threads
