@@ -20,10 +20,11 @@ PyAV releases the GIL while FFmpeg decodes and x264 encodes, so decode and
 encode overlap with the Python/OpenCV/GL work of the main thread and both
 cores are used. Audio packets of the input are demuxed by the decode thread
 and handed, in order, to the encode thread, which muxes them unchanged.
-These threads are the pipeline's parallelism: while it runs, OpenCV works on
-one thread (``Pipeline(cv_threads=1)``) and Mesa's llvmpipe draws on the
-main thread (:mod:`render.context`), rather than handing small jobs to
-pools of their own that would compete for the same two cores.
+These threads are the pipeline's parallelism: while it runs, OpenCV and the
+BLAS behind numpy and scipy work on one thread each (``Pipeline(pool_threads=1)``)
+and Mesa's llvmpipe draws on the main thread (:mod:`render.context`), rather
+than handing small jobs to pools of their own that would compete for the
+same two cores.
 
 Fast path (DESIGN.md section 4): frames of even size stay planar YUV 4:2:0
 from decoder to encoder. BGR is made once, lazily, for the stages that ask
@@ -1022,16 +1023,18 @@ class Pipeline:
     queue_size : int, frames between decode and the stages (offline)
     progress : callable(done, total), optional, called after each frame
     max_frames : int, optional, stop after this many decoded frames
-    cv_threads : int or None, OpenCV's worker threads while :meth:`run` runs
-        (its setting is restored after). Default 1: the pipeline's own threads
-        already keep the cores busy, and OpenCV's pool would only add
-        hand-overs between them (about 2 ms of CPU a 720p frame, see
-        bench/README.md). None leaves OpenCV's setting as it is.
+    pool_threads : int or None, threads of the libraries' own worker pools
+        (OpenCV's, and the BLAS behind numpy and scipy, via threadpoolctl)
+        while :meth:`run` runs; their settings are restored after. Default 1:
+        the pipeline's own threads already keep the cores busy, and those
+        pools would only add hand-overs and spinning workers beside them
+        (about 4 ms of CPU a 720p frame together, see bench/README.md).
+        None leaves them as they are.
     """
 
-    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, cv_threads: int | None = 1):
+    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, pool_threads: int | None = 1):
         self.source = source
-        self.cv_threads = cv_threads
+        self.pool_threads = pool_threads
         self.stages = list(stages)
         self.realtime = realtime
         self.progress = progress
@@ -1102,14 +1105,18 @@ class Pipeline:
                 signal.signal(s, h)
 
     @contextlib.contextmanager
-    def _opencv_threads(self):
-        if self.cv_threads is None:
+    def _pools(self):
+        """OpenCV's and BLAS's worker pools at ``pool_threads`` for the run."""
+        if self.pool_threads is None:
             yield
             return
+        from threadpoolctl import threadpool_limits
+
         old = cv2.getNumThreads()
-        cv2.setNumThreads(self.cv_threads)
+        cv2.setNumThreads(self.pool_threads)
         try:
-            yield
+            with threadpool_limits(self.pool_threads, user_api="blas"):
+                yield
         finally:
             cv2.setNumThreads(old)
 
@@ -1171,7 +1178,7 @@ class Pipeline:
         interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
         decoder = threading.Thread(target=self._decode, name="arstream-decode", daemon=True)
         failed = False
-        with self._signals(handle_signals), self._opencv_threads():
+        with self._signals(handle_signals), self._pools():
             try:
                 decoder.start()
                 while self._signal is None:

@@ -555,12 +555,17 @@ def test_a_bug_in_a_stage_is_one_line_and_the_outputs_are_finalised(small, tmp_p
 
 
 
-@pytest.mark.parametrize("cv_threads", [1, None])
-def test_opencv_threads_during_a_run_and_restored_after(small, cv_threads):
-    """The pipeline runs OpenCV on one thread (its own threads use the cores) and
-    gives OpenCV its setting back afterwards, also when a stage fails;
-    ``cv_threads=None`` leaves the setting alone."""
+@pytest.mark.parametrize("pool_threads", [1, None])
+def test_library_pools_during_a_run_and_restored_after(small, pool_threads):
+    """The pipeline runs OpenCV and the BLAS behind numpy / scipy on one thread
+    each (its own threads use the cores) and gives them their settings back
+    afterwards, also when a stage fails; ``pool_threads=None`` leaves them alone."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
     from arstream.pipeline import Pipeline, Stage
+
+    def blas():
+        return sorted({p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"})
 
     seen = []
 
@@ -568,7 +573,7 @@ def test_opencv_threads_during_a_run_and_restored_after(small, cv_threads):
         name = "probe"
 
         def process(self, item):
-            seen.append(cv2.getNumThreads())
+            seen.append((cv2.getNumThreads(), blas()))
             if item.index == 3:
                 raise RuntimeError("stage failed")
             return [item]
@@ -576,10 +581,12 @@ def test_opencv_threads_during_a_run_and_restored_after(small, cv_threads):
     before = cv2.getNumThreads()
     cv2.setNumThreads(2)
     try:
-        with VideoSource(small / "clip.mp4") as src:
-            with pytest.raises(RuntimeError, match="stage failed"):
-                Pipeline(src, [Probe()], cv_threads=cv_threads).run(handle_signals=False)
-        assert seen == [1 if cv_threads == 1 else 2] * 4
-        assert cv2.getNumThreads() == 2
+        with threadpool_limits(2, user_api="blas"):
+            assert blas() == [2]
+            with VideoSource(small / "clip.mp4") as src:
+                with pytest.raises(RuntimeError, match="stage failed"):
+                    Pipeline(src, [Probe()], pool_threads=pool_threads).run(handle_signals=False)
+            assert seen == [(1, [1]) if pool_threads == 1 else (2, [2])] * 4
+            assert cv2.getNumThreads() == 2 and blas() == [2]
     finally:
         cv2.setNumThreads(before)
