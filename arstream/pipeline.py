@@ -340,14 +340,19 @@ class ThreadedStage(Stage):
     even when the main thread is the slowest part. Adds one frame of latency.
     ``detach`` runs in the worker after the stage (default
     :func:`own_detections`: copy the buffers the detector reuses).
+    ``nice`` is added to the worker's scheduling niceness (Linux, where it is
+    per thread; 0 elsewhere): a worker that only runs ahead of the main thread
+    can leave the cores to the encoder's threads, the offline pipeline's
+    bottleneck, whenever both are ready to run (see :data:`WORKER_NICE`).
     """
 
     self_timed = True
 
-    def __init__(self, stage: Stage, detach: Callable[[Item], None] | None = own_detections):
+    def __init__(self, stage: Stage, detach: Callable[[Item], None] | None = own_detections, *, nice: int = 0):
         import queue
 
         self.stage = stage
+        self.nice = int(nice)
         self.name = stage.name
         self.available = getattr(stage, "available", True)
         self.detach = detach
@@ -358,6 +363,10 @@ class ThreadedStage(Stage):
         self.thread.start()
 
     def _run(self) -> None:
+        if self.nice and sys.platform.startswith("linux"):
+            with contextlib.suppress(OSError):  # (best effort: a scheduling hint)
+                tid = threading.get_native_id()
+                os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + self.nice))
         while True:
             item = self.inq.get()
             if item is None:
@@ -1240,10 +1249,18 @@ class Pipeline:
 
 
 # --------------------------------------------------------------------------- library API
+#: Niceness added to the worker thread of an overlapped stage (detection, keying)
+#: of :func:`process` and :func:`render_clip`. x264 is their bottleneck and its
+#: frame threads stall on one another; the worker, one frame ahead of the main
+#: thread, does its work in those gaps rather than beside x264. At 720p: about
+#: 54 fps against 51 (six alternating pairs), the cores 86-88 % busy against 82-83 %.
+WORKER_NICE = 10
+
+
 def _overlapped(stage: Stage, overlap: bool) -> Stage:
     """``stage`` on a worker thread one frame ahead (when it does work), else as is."""
     if overlap and getattr(stage, "available", True):
-        return ThreadedStage(stage)
+        return ThreadedStage(stage, nice=WORKER_NICE)
     return stage
 
 

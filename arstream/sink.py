@@ -139,7 +139,7 @@ class VideoSink:
         """
         if yuv.shape != (self.height * 3 // 2, self.width) or self.width % 2 or self.height % 2:
             raise ValueError(f"I420 buffer is {yuv.shape}, sink expects {(self.height * 3 // 2, self.width)} (even sizes only)")
-        self._encode(av.VideoFrame.from_ndarray(yuv, format="yuv420p"), pts, ts)
+        self._encode(av.VideoFrame.from_numpy_buffer(np.ascontiguousarray(yuv), format="yuv420p"), pts, ts)
 
     def _encode(self, vf, pts, ts) -> None:
         tb = self.time_base

@@ -590,3 +590,33 @@ def test_library_pools_during_a_run_and_restored_after(small, pool_threads):
             assert cv2.getNumThreads() == 2 and blas() == [2]
     finally:
         cv2.setNumThreads(before)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread niceness is Linux's")
+def test_overlapped_worker_yields_to_the_encoder(small):
+    """The overlapped stage's worker runs WORKER_NICE nicer than the thread that
+    made it (the encoder's threads go first); the caller's thread is untouched."""
+    import threading
+
+    from arstream.pipeline import WORKER_NICE, Item, Stage, ThreadedStage, _overlapped
+
+    def niceness():
+        return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+
+    class Probe(Stage):
+        name = "probe"
+        seen: list = []
+
+        def process(self, item):
+            self.seen.append(niceness())
+            return [item]
+
+    mine = niceness()
+    with VideoSource(small / "clip.mp4") as src:
+        frames = [f for _, f in zip(range(3), src)]
+    for stage, want in ((_overlapped(Probe(), True), min(19, mine + WORKER_NICE)), (ThreadedStage(Probe()), mine)):
+        Probe.seen = []
+        out = [it for f in frames for it in stage.process(Item(f))] + stage.flush()
+        stage.close()
+        assert [it.index for it in out] == [0, 1, 2] and Probe.seen == [want] * 3
+    assert WORKER_NICE > 0 and niceness() == mine
