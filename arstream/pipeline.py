@@ -317,6 +317,16 @@ def _matte_of(det) -> np.ndarray | None:
     return small if small is not None else getattr(det, "grass_mask", None)
 
 
+def _renice(nice: int) -> None:
+    """Add ``nice`` to the calling thread's scheduling niceness (at most 19), on
+    Linux, where niceness is per thread (and inherited by the threads it starts,
+    such as FFmpeg's decoder threads); elsewhere nothing. Best effort: a hint."""
+    if nice and sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError):
+            tid = threading.get_native_id()
+            os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + int(nice)))
+
+
 def own_detections(item: Item) -> None:
     """Replace the item's detections (and matte) by private deep copies, so the
     detector may reuse its buffers for the next frame while this one is used."""
@@ -363,10 +373,7 @@ class ThreadedStage(Stage):
         self.thread.start()
 
     def _run(self) -> None:
-        if self.nice and sys.platform.startswith("linux"):
-            with contextlib.suppress(OSError):  # (best effort: a scheduling hint)
-                tid = threading.get_native_id()
-                os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + self.nice))
+        _renice(self.nice)
         while True:
             item = self.inq.get()
             if item is None:
@@ -1039,11 +1046,15 @@ class Pipeline:
         pools would only add hand-overs and spinning workers beside them
         (about 4 ms of CPU a 720p frame together, see bench/README.md).
         None leaves them as they are.
+    decode_nice : int, added to the decode thread's niceness (and its
+        decoder's threads'), see :data:`WORKER_NICE`; 0 for live sources,
+        whose reader must keep up with the network
     """
 
-    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, pool_threads: int | None = 1):
+    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, pool_threads: int | None = 1, decode_nice: int = 0):
         self.source = source
         self.pool_threads = pool_threads
+        self.decode_nice = int(decode_nice)
         self.stages = list(stages)
         self.realtime = realtime
         self.progress = progress
@@ -1062,6 +1073,7 @@ class Pipeline:
 
     # ---- decode thread
     def _decode(self) -> None:
+        _renice(self.decode_nice)
         box = self.box
         interval = 1.0 / self.source.fps if self.source.fps > 0 else 0.04
         anchor = None  # (wall time, pts) of the pacing clock
@@ -1249,11 +1261,13 @@ class Pipeline:
 
 
 # --------------------------------------------------------------------------- library API
-#: Niceness added to the worker thread of an overlapped stage (detection, keying)
-#: of :func:`process` and :func:`render_clip`. x264 is their bottleneck and its
-#: frame threads stall on one another; the worker, one frame ahead of the main
-#: thread, does its work in those gaps rather than beside x264. At 720p: about
-#: 54 fps against 51 (six alternating pairs), the cores 86-88 % busy against 82-83 %.
+#: Niceness added to the threads that work ahead of the main thread in
+#: :func:`process` and :func:`render_clip`: the overlapped stage's worker
+#: (detection, keying) and the decode thread with FFmpeg's decoder threads.
+#: x264 is their bottleneck and its frame threads stall on one another; the
+#: threads ahead, with frames queued, do their work in those gaps rather than
+#: beside x264. At 720p, five alternating pairs each: the worker alone about
+#: 54.6 fps against 51.8, with the decoder too about 56.8 against 53.7.
 WORKER_NICE = 10
 
 
@@ -1391,7 +1405,7 @@ def process(
             ],
             src,
         )
-        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames)
+        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames, decode_nice=WORKER_NICE)
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
@@ -1446,7 +1460,7 @@ def render_clip(
             ],
             src,
         )
-        pipe = Pipeline(src, stages, progress=progress)
+        pipe = Pipeline(src, stages, progress=progress, decode_nice=WORKER_NICE)
         pipe.summary.output = os.fspath(output)
         pipe.summary.missing = _missing(*stages)
         return pipe.run(handle_signals=handle_signals)

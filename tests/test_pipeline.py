@@ -620,3 +620,29 @@ def test_overlapped_worker_yields_to_the_encoder(small):
         stage.close()
         assert [it.index for it in out] == [0, 1, 2] and Probe.seen == [want] * 3
     assert WORKER_NICE > 0 and niceness() == mine
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread niceness is Linux's")
+@pytest.mark.parametrize("nice", [0, 3])
+def test_decode_thread_niceness(small, nice):
+    """``Pipeline(decode_nice=n)``: the decode thread runs n nicer than the caller
+    (process and render_clip pass WORKER_NICE; live streams 0)."""
+    import threading
+
+    from arstream.pipeline import Pipeline
+
+    def niceness():
+        return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+
+    seen = []
+    mine = niceness()
+    with VideoSource(small / "clip.mp4") as src:
+        frames = src.frames
+
+        def watched(*a, **k):
+            seen.append(niceness())
+            yield from frames(*a, **k)
+
+        src.frames = watched
+        s = Pipeline(src, [], decode_nice=nice).run(handle_signals=False)
+    assert s.frames == 12 and seen == [min(19, mine + nice)] and niceness() == mine
