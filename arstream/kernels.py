@@ -757,10 +757,10 @@ def settle_points(pts, nrm, d, mask, fx, fy, cell_x, cell_y, grid, min_extent, l
         cxi[k] = min(max(int(pts[i, 0] * cell_x), 0), gw - 1)
         cyi[k] = min(max(int(pts[i, 1] * cell_y), 0), gh - 1)
     lab, ext_x, ext_y = chains(cxi, cyi, 1, grid)
-    cnt = 0
+    long = np.empty(m, np.bool_)
     for k in range(m):
-        if max(ext_x[k], ext_y[k]) + 1 >= min_extent:
-            cnt += 1
+        long[k] = max(ext_x[k], ext_y[k]) + 1 >= min_extent
+    cnt = int(long.sum())
     sel = np.empty(cnt, np.int64)
     labels = np.empty(cnt, np.int32)
     full = np.empty((cnt, 2))
@@ -768,7 +768,7 @@ def settle_points(pts, nrm, d, mask, fx, fy, cell_x, cell_y, grid, min_extent, l
     h, w = lm.shape
     j = 0
     for k in range(m):
-        if max(ext_x[k], ext_y[k]) + 1 >= min_extent:
+        if long[k]:
             i = idx[k]
             x = pts[i, 0]
             y = pts[i, 1]
@@ -1558,6 +1558,19 @@ def label_scatters(D, labels, free, slot_of):
 
 
 @nb.njit(**_JIT)
+def _matmul3(A, B):
+    """``A @ B`` of two 3 x 3 matrices, each entry summed over k in order."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            v = 0.0
+            for k in range(3):
+                v += A[i, k] * B[k, j]
+            out[i, j] = v
+    return out
+
+
+@nb.njit(**_JIT)
 def frame_ellipse(coef, T):
     """The ellipse of a conic given in other coordinates: the conic
     ``[A, B, C, D, E, F]`` (``A x^2 + B x y + C y^2 + D x + E y + F``) in
@@ -1585,20 +1598,7 @@ def frame_ellipse(coef, T):
     M[0, 2] = M[2, 0] = coef[3] / 2
     M[1, 2] = M[2, 1] = coef[4] / 2
     M[2, 2] = coef[5]
-    MT = np.zeros((3, 3))  # M T
-    for i in range(3):
-        for j in range(3):
-            v = 0.0
-            for k in range(3):
-                v += M[i, k] * T[k, j]
-            MT[i, j] = v
-    C = np.zeros((3, 3))  # T^T M T
-    for i in range(3):
-        for j in range(3):
-            v = 0.0
-            for k in range(3):
-                v += T[k, i] * MT[k, j]
-            C[i, j] = v
+    C = _matmul3(T.T, _matmul3(M, T))  # T^T M T
     nn = 0.0
     for i in range(3):
         for j in range(3):
