@@ -763,7 +763,8 @@ class RenderStage(Stage):
 class EncodeStage(Stage):
     """H.264 encode (libx264) on a thread, with the input's audio copied through.
 
-    Frames keep the input's timestamps and time base. ``process`` queues the
+    Frames keep the input's timestamps and time base, and (``keep_b_frames``,
+    see :class:`arstream.sink.VideoSink`) the input's B-frames. ``process`` queues the
     frame (bounded queue; it blocks when the encoder is behind) and returns
     the item at once; ``close`` drains the queue, writes the trailer and moves
     the file into place.
@@ -771,9 +772,9 @@ class EncodeStage(Stage):
 
     name = "encode"
 
-    def __init__(self, path, source: VideoSource, *, crf: int = 20, preset: str = "veryfast", audio: bool = True, queue_size: int = 4, rebase: bool = False):
+    def __init__(self, path, source: VideoSource, *, crf: int = 20, preset: str = "veryfast", audio: bool = True, queue_size: int = 4, rebase: bool = False, keep_b_frames: bool = True):
         audio_in = source.audio_stream if audio else None
-        self.sink = VideoSink(path, source.width, source.height, source.rate, crf=crf, preset=preset, time_base=source.time_base, audio_from=audio_in)
+        self.sink = VideoSink(path, source.width, source.height, source.rate, crf=crf, preset=preset, time_base=source.time_base, audio_from=audio_in, keep_b_frames=keep_b_frames)
         self.path = self.sink.path
         self.rebase = rebase  # live sources: start the output at 0
         self._ts0 = None
@@ -801,13 +802,13 @@ class EncodeStage(Stage):
             if self._ts0 is None:
                 self._ts0 = ts
             ts -= self._ts0
-        self._put(("yuv" if f.yuv is not None else "bgr", f.yuv if f.yuv is not None else f.image, f.pts, ts))
+        self._put(("yuv" if f.yuv is not None else "bgr", f.yuv if f.yuv is not None else f.image, f.pts, ts, f.picture_type))
         return [item]
 
     def audio(self, packet) -> None:
         """Queue one input audio packet to be muxed unchanged."""
         if self.sink.audio_out is not None and not self.rebase:
-            self._put(("audio", packet, None, None))
+            self._put(("audio", packet, None, None, None))
 
     def _run(self) -> None:
         sink = self.sink
@@ -819,13 +820,13 @@ class EncodeStage(Stage):
                 self.cv.notify_all()
             if msg is None:
                 return
-            kind, data, pts, ts = msg
+            kind, data, pts, ts, picture_type = msg
             try:
                 t0 = time.perf_counter()
                 if kind == "yuv":
-                    sink.write_yuv(data, pts, ts=ts)
+                    sink.write_yuv(data, pts, ts=ts, picture_type=picture_type)
                 elif kind == "bgr":
-                    sink.write(data, pts, ts=ts)
+                    sink.write(data, pts, ts=ts, picture_type=picture_type)
                 else:
                     sink.mux_audio(data)
                     continue
@@ -1343,6 +1344,7 @@ def process(
     overlap: bool = True,
     analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
     threads: int = 0,
+    keep_b_frames: bool = True,
 ) -> Summary:
     """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
 
@@ -1359,6 +1361,9 @@ def process(
     lag : frames of look-ahead of the smoother (0: causal, as live)
     crf, preset : x264 quality and speed
     audio : copy the input's first audio stream through
+    keep_b_frames : code the input's B-frames as B-frames (the input's frame
+        pattern kept: a smaller output, closer to the input; see
+        :class:`arstream.sink.VideoSink`); False: x264 chooses every frame's type
     progress : callable(done, total), optional
     max_frames : stop after this many frames
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
@@ -1400,7 +1405,7 @@ def process(
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
-                (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio)) if output is not None else (lambda: None),
+                (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
             ],
             src,
@@ -1425,6 +1430,7 @@ def render_clip(
     progress: Callable | None = None,
     handle_signals: bool = True,
     overlap: bool = True,
+    keep_b_frames: bool = True,
 ) -> Summary:
     """Draw a scene on a clip with cameras read from a ``cameras.jsonl`` (no solving).
 
@@ -1434,7 +1440,7 @@ def render_clip(
     detector (no keying when this build has none); "green" a chroma key on the
     grass hue; a callable(image_bgr) -> (H, W) uint8 matte your own; False or
     None no keying. ``overlap`` computes the matte of frame i+1 on a worker
-    thread while frame i is rendered.
+    thread while frame i is rendered. ``keep_b_frames`` as for :func:`process`.
     """
     _check_output(output, input)
     if key is True:
@@ -1456,7 +1462,7 @@ def render_clip(
                 make_key,
                 lambda: CamerasInStage(cameras),
                 lambda: RenderStage(W, H, scene),
-                lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio),
+                lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames),
             ],
             src,
         )

@@ -68,6 +68,18 @@ class VideoSink:
     audio_from : av.audio.stream.AudioStream, optional
         An input audio stream to copy through unchanged (use :meth:`mux_audio`).
     threads : int, encoder threads (0 = auto)
+    keep_b_frames : bool
+        Code a frame that the input coded as a B-frame (``picture_type="B"``
+        to :meth:`write` / :meth:`write_yuv`) as a B-frame too, instead of
+        leaving every frame's type to x264. A re-encode that keeps the
+        input's frame pattern predicts from the frames the input's encoder
+        predicted from: fewer bits and less generation loss at the same
+        ``crf``, and less work for x264 (on the wide preset with the demo
+        scene: 34 % smaller, 2 dB closer to the frames given, about 18 % less
+        x264 CPU). Only B-frames are followed: an input without them (all
+        intra, or I and P only) is left to x264, and a B that x264's settings
+        cannot take (the first frame, a run longer than the preset's B-frame
+        limit, or a preset without B-frames) is made a P by x264 itself.
     """
 
     def __init__(
@@ -82,6 +94,7 @@ class VideoSink:
         time_base: Fraction | None = None,
         audio_from=None,
         threads: int = 0,
+        keep_b_frames: bool = True,
     ):
         self.path = os.fspath(path)
         if width <= 0 or height <= 0:
@@ -105,6 +118,7 @@ class VideoSink:
         self.stream.options = {"crf": str(crf), "preset": preset}
         self.stream.codec_context.thread_count = threads
         self.width, self.height = width, height
+        self.keep_b_frames = bool(keep_b_frames)
         self.audio_out = None
         if audio_from is not None:
             self.audio_out = self.container.add_stream_from_template(audio_from)
@@ -119,29 +133,33 @@ class VideoSink:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def write(self, image: np.ndarray, pts: float | None = None, *, ts: int | None = None) -> None:
+    def write(self, image: np.ndarray, pts: float | None = None, *, ts: int | None = None, picture_type: str | None = None) -> None:
         """Encode one BGR uint8 (H, W, 3) frame.
 
         ``pts`` in seconds (default: index / rate), or ``ts`` in units of the
-        sink's ``time_base`` (exact; wins over ``pts``).
+        sink's ``time_base`` (exact; wins over ``pts``). ``picture_type``: how
+        the input coded this frame ("I", "P", "B" or None; see ``keep_b_frames``).
         """
         if image.shape[:2] != (self.height, self.width):
             raise ValueError(f"frame is {image.shape[1]}x{image.shape[0]}, sink expects {self.width}x{self.height}")
         if (self.stream.width, self.stream.height) != (self.width, self.height):
             image = np.pad(image, ((0, self.stream.height - self.height), (0, self.stream.width - self.width), (0, 0)), mode="edge")
         vf = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
-        self._encode(vf, pts, ts)
+        self._encode(vf, pts, ts, picture_type)
 
-    def write_yuv(self, yuv: np.ndarray, pts: float | None = None, *, ts: int | None = None) -> None:
+    def write_yuv(self, yuv: np.ndarray, pts: float | None = None, *, ts: int | None = None, picture_type: str | None = None) -> None:
         """Encode one I420 frame ((H * 3 / 2, W) uint8, see :func:`arstream.source.i420_planes`).
 
-        The fast path: no colour conversion (even frame sizes only). Timing as :meth:`write`.
+        The fast path: no colour conversion (even frame sizes only). Timing and
+        ``picture_type`` as :meth:`write`.
         """
         if yuv.shape != (self.height * 3 // 2, self.width) or self.width % 2 or self.height % 2:
             raise ValueError(f"I420 buffer is {yuv.shape}, sink expects {(self.height * 3 // 2, self.width)} (even sizes only)")
-        self._encode(av.VideoFrame.from_numpy_buffer(np.ascontiguousarray(yuv), format="yuv420p"), pts, ts)
+        self._encode(av.VideoFrame.from_numpy_buffer(np.ascontiguousarray(yuv), format="yuv420p"), pts, ts, picture_type)
 
-    def _encode(self, vf, pts, ts) -> None:
+    def _encode(self, vf, pts, ts, picture_type) -> None:
+        if picture_type == "B" and self.keep_b_frames:
+            vf.pict_type = av.video.frame.PictureType.B  # libx264 takes it as the frame's type (X264_TYPE_B)
         tb = self.time_base
         if ts is not None:
             vf.pts = int(ts)

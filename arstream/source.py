@@ -74,11 +74,13 @@ class Frame:
     ts : int or None, presentation time in the stream's ``time_base`` units
         (the exact value to write back when re-encoding)
     decode_ms : float, time spent decoding and converting this frame
+    picture_type : "I", "P" or "B": how the input coded this frame (as its
+        decoder reports it), or None (unknown, or another type)
     """
 
-    __slots__ = ("index", "pts", "_image", "yuv", "ts", "decode_ms", "width", "height")
+    __slots__ = ("index", "pts", "_image", "yuv", "ts", "decode_ms", "width", "height", "picture_type")
 
-    def __init__(self, index: int, pts: float, image: np.ndarray | None = None, *, yuv: np.ndarray | None = None, ts: int | None = None, width: int | None = None, height: int | None = None, decode_ms: float = 0.0):
+    def __init__(self, index: int, pts: float, image: np.ndarray | None = None, *, yuv: np.ndarray | None = None, ts: int | None = None, width: int | None = None, height: int | None = None, decode_ms: float = 0.0, picture_type: str | None = None):
         if image is None and yuv is None:
             raise ValueError("a Frame needs an image or a yuv buffer")
         self.index = index
@@ -87,6 +89,7 @@ class Frame:
         self.yuv = yuv
         self.ts = ts
         self.decode_ms = decode_ms
+        self.picture_type = picture_type
         if image is not None:
             self.height, self.width = image.shape[:2]
         else:
@@ -309,14 +312,19 @@ class VideoSource:
             t = index / self.fps
             ts = None
         w, h = vf.width, vf.height
+        kind = _PICTURE_TYPES.get(int(vf.pict_type))
         if (w, h) != (self.width, self.height):  # mid-stream size change: keep the first size
             vf = vf.reformat(width=self.width, height=self.height)
             w, h = self.width, self.height
         if w % 2 == 0 and h % 2 == 0:
             if vf.format.name != "yuv420p":
                 vf = vf.reformat(format="yuv420p")
-            return Frame(index, t, yuv=vf.to_ndarray(), ts=ts, width=w, height=h, decode_ms=(time.perf_counter() - t0) * 1e3)
-        return Frame(index, t, vf.to_ndarray(format="bgr24"), ts=ts, decode_ms=(time.perf_counter() - t0) * 1e3)
+            return Frame(index, t, yuv=vf.to_ndarray(), ts=ts, width=w, height=h, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
+        return Frame(index, t, vf.to_ndarray(format="bgr24"), ts=ts, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
+
+
+# FFmpeg's picture types (AVPictureType) that a Frame reports
+_PICTURE_TYPES = {int(av.video.frame.PictureType.I): "I", int(av.video.frame.PictureType.P): "P", int(av.video.frame.PictureType.B): "B"}
 
 
 def _reason(exc: BaseException) -> str:

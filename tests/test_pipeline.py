@@ -153,6 +153,8 @@ def test_process_keeps_frames_timing_and_audio(clip, processed):
     assert [p * b["time_base"] for p in b["pts"]] == [p * a["time_base"] for p in a["pts"]]
     assert b["duration"] == pytest.approx(a["duration"], abs=1e-6)
     assert b["size"] == a["size"]
+    types_in, types_out = picture_types(clip / "clip_audio.mp4"), picture_types(out / "ar.mp4")
+    assert types_in.count("B") > 5 and all(t == "B" for s, t in zip(types_in, types_out) if s == "B")  # the input's B-frames kept
     assert b["audio_codec"] == "aac" and len(b["audio"]) == len(a["audio"]) > 0
     assert b["audio"] == a["audio"]  # copied through unchanged
     recs = read_jsonl(out / "cameras.jsonl")
@@ -406,6 +408,47 @@ def test_source_yuv_fast_path_matches_bgr(small):
     assert f.image.shape == (180, 320, 3)
     assert np.abs(f.image.astype(int) - ref[4]).mean() < 2.0  # BT.601 both ways, rounding apart
     assert np.array_equal(f.gray, i420_planes(f.yuv, 320, 180)[0])
+
+
+def picture_types(path) -> str:
+    """The picture type of each frame of a video, in order ("I", "P", "B", "?" for others)."""
+    with av.open(str(path)) as c:
+        return "".join({1: "I", 2: "P", 3: "B"}.get(int(f.pict_type), "?") for f in c.decode(video=0))
+
+
+def test_source_reports_picture_types(small):
+    with VideoSource(small / "clip.mp4") as src:
+        got = "".join(f.picture_type or "?" for f in src)
+    assert got == picture_types(small / "clip.mp4")
+    assert got[0] == "I" and "P" in got and "B" in got  # x264 veryfast: B-frames between P-frames
+
+
+def _packets(path) -> list[bytes]:
+    with av.open(str(path)) as c:
+        return [bytes(p) for p in c.demux(video=0) if p.size]
+
+
+def test_sink_follows_the_input_b_frames_only(tmp_path):
+    """A "B" asks x264 for a B-frame (it makes the last frame a P itself: nothing
+    follows it to predict from); "I" and "P" are left to x264, so an all-intra
+    input does not make an all-intra output; keep_b_frames=False ignores them all."""
+    rng = np.random.default_rng(0)
+    frames = [rng.integers(0, 256, (64, 64, 3), np.uint8) for _ in range(12)]  # unrelated frames: x264 alone picks few B-frames
+
+    def encode(name, hints, **kw):
+        with VideoSink(tmp_path / name, 64, 64, 25, **kw) as sink:
+            for f, h in zip(frames, hints):
+                sink.write(f, picture_type=h)
+        return picture_types(tmp_path / name), _packets(tmp_path / name)
+
+    free, free_pk = encode("free.mp4", [None] * 12)
+    hints = "IBPBPBPBBBPB"
+    kept, _ = encode("kept.mp4", hints)
+    assert kept == hints[:-1] + "P"
+    assert free.count("B") < kept.count("B")  # the hints changed something
+    assert encode("ignored.mp4", hints, keep_b_frames=False) == (free, free_pk)
+    assert encode("intra.mp4", "I" * 12) == (free, free_pk)
+    assert encode("p_only.mp4", "I" + "P" * 11) == (free, free_pk)
 
 
 def _i420_reference(bgr: np.ndarray) -> np.ndarray:

@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from arstream.commands._clip import add_encoder_arguments
+
 ORDER = 35
 
 DESCRIPTION = """\
@@ -57,9 +59,7 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, metavar="N", help="clips at once (default: the cores, or the Ray cluster's CPUs)")
     p.add_argument("--force", action="store_true", help="redo clips whose outputs are already complete")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
-    p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
-    p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
-    p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")
+    add_encoder_arguments(p, keep_b_frames=False)
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop each clip after N frames")
     p.add_argument("--json", action="store_true", help="print the batch summary as JSON on stdout")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no line per clip")

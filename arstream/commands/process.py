@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from arstream.commands._clip import add_encoder_arguments
+
 ORDER = 30
 
 DESCRIPTION = """\
@@ -43,9 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--cameras-out", metavar="FILE", help="write the camera of every frame as JSON lines (cameras.jsonl)")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
     p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640)")
-    p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
-    p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
-    p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")
+    add_encoder_arguments(p)
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -72,6 +72,7 @@ def run(args) -> int:
             crf=args.crf,
             preset=args.preset,
             audio=not args.no_audio,
+            keep_b_frames=not args.no_keep_b_frames,
             progress=progress,
             max_frames=args.frames,
             analysis_width=aw,

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import importlib.util
 
+from arstream.commands._clip import add_encoder_arguments
+
 ORDER = 40
 
 DESCRIPTION = """\
@@ -49,9 +51,7 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUT.mp4", help="video to write")
     p.add_argument("--key", choices=("auto", "green", "none"), default="auto",
                    help="grass matte for on-grass graphics: auto (detector, else green), green (chroma key), none (default: auto)")
-    p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
-    p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
-    p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")
+    add_encoder_arguments(p)
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -77,6 +77,7 @@ def run(args) -> int:
             crf=args.crf,
             preset=args.preset,
             audio=not args.no_audio,
+            keep_b_frames=not args.no_keep_b_frames,
             progress=progress,
         ),
         args,
