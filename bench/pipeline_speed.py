@@ -9,7 +9,10 @@ alternately, through
 
 * **plain**: PyAV threaded decode -> libx264 encode with the pipeline's
   settings (crf 20, preset veryfast, yuv420p, auto threads), decoded frames
-  handed to the encoder as they are (no colour conversion), timestamps kept;
+  handed to the encoder as they are (no colour conversion), timestamps kept,
+  every frame's type left to x264 (the issue's baseline);
+* **plain, B-frames kept**: the same, with the input's B-frames coded as
+  B-frames, as ``arstream process`` does by default (reported for reference);
 * **process**: ``arstream process IN -o OUT`` (decode, detect, track with a
   10-frame smoother, render the demo scene, composite, encode),
 
@@ -52,8 +55,10 @@ KEEP = "<!-- hand-written below: bench/pipeline_speed.py --write keeps it -->"
 
 
 # --------------------------------------------------------------------------- child: plain decode+encode
-def plain(src: str, dst: str) -> None:
-    """Decode + encode with the pipeline's codec settings; prints JSON {frames, seconds}."""
+def plain(src: str, dst: str, keep_b_frames: bool = False) -> None:
+    """Decode + encode with the pipeline's codec settings; prints JSON {frames, seconds}.
+    ``keep_b_frames``: the input's B-frames stay B-frames, as ``arstream process``
+    does by default (``arstream.sink.VideoSink``); otherwise x264 chooses every type."""
     import av
 
     t0 = time.perf_counter()
@@ -78,7 +83,9 @@ def plain(src: str, dst: str) -> None:
                 out.mux(pkt)
             continue
         for f in pkt.decode():
-            f.pict_type = av.video.frame.PictureType.NONE
+            # a decoded frame carries its type, which libx264 would take as an order
+            if not (keep_b_frames and f.pict_type == av.video.frame.PictureType.B):
+                f.pict_type = av.video.frame.PictureType.NONE
             for p in vout.encode(f):
                 out.mux(p)
             n += 1
@@ -145,13 +152,15 @@ def bench_size(size, frames, repeats, work, long_times: int = 2) -> dict:
     src = clip_for(size, frames, work)
     out = os.path.join(work, "out.mp4")
     plain_cmd = [py, os.path.abspath(__file__), "--plain", src, os.path.join(work, "plain.mp4")]
+    plain_b_cmd = [py, os.path.abspath(__file__), "--plain-keep-b", src, os.path.join(work, "plain.mp4")]
     proc_cmd = [py, "-m", "arstream.cli", "process", src, "-o", out, "-q", "--json"]
     truth = os.path.join(os.path.dirname(src), "truth.jsonl")
     # the same loop with the cameras known (no detection, no solving): the pipeline's own cost
     render_cmd = [py, "-m", "arstream.cli", "render", src, "--cameras", truth, "--key", "none", "-o", out, "-q", "--json"]
-    runs = {"plain": [], "process": [], "render": []}
+    runs = {"plain": [], "plain_b": [], "process": [], "render": []}
     for _ in range(repeats):
         runs["plain"].append(measured(plain_cmd))
+        runs["plain_b"].append(measured(plain_b_cmd))
         runs["process"].append(measured(proc_cmd))
         runs["render"].append(measured(render_cmd))
     n = runs["process"][0]["frames"]
@@ -169,6 +178,9 @@ def bench_size(size, frames, repeats, work, long_times: int = 2) -> dict:
         "process_wall": med("process", "wall"),
         "ratio_run": med("process", "seconds") / med("plain", "seconds"),
         "ratio_wall": med("process", "wall") / med("plain", "wall"),
+        "plain_b_fps": n / med("plain_b", "seconds"),
+        "ratio_run_b": med("process", "seconds") / med("plain_b", "seconds"),
+        "plain_b_run_cpu_ms": 1e3 * med("plain_b", "cpu_seconds") / n,
         "plain_cpu_ms": 1e3 * med("plain", "cpu") / n,
         "process_cpu_ms": 1e3 * med("process", "cpu") / n,
         "plain_run_cpu_ms": 1e3 * med("plain", "cpu_seconds") / n,
@@ -204,6 +216,16 @@ def table(results: list[dict]) -> str:
             f"| {r['ratio_run']:.2f}x / {r['ratio_wall']:.2f}x | {r['plain_run_cpu_ms']:.1f} / {r['process_run_cpu_ms']:.1f} ({r['plain_cpu_ms']:.1f} / {r['process_cpu_ms']:.1f}) "
             f"| {r['rss_plain']:.0f} / {r['rss_process']:.0f} / {r['rss_process_long']:.0f} MiB ({r['long_times']}x) |"
         )
+    lines += [
+        "",
+        "For reference, plain decode+encode with the input's B-frames kept as B-frames (as `arstream process` does by",
+        "default; the target's plain run lets x264 choose every frame's type):",
+        "",
+        "| clip | plain, B-frames kept | ratio process / it (run) | CPU ms/frame (run) |",
+        "|---|---|---|---|",
+    ]
+    for r in results:
+        lines.append(f"| {r['size']} | {r['plain_b_fps']:.1f} fps | {r['ratio_run_b']:.2f}x | {r['plain_b_run_cpu_ms']:.1f} |")
     lines += [
         "",
         "The same decode -> render -> composite -> encode loop with the cameras known (`arstream render --cameras truth.jsonl --key none`,",
@@ -273,6 +295,7 @@ def write_section(text: str) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--plain", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
+    ap.add_argument("--plain-keep-b", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument("--sizes", default="1280x720,1920x1080")
     ap.add_argument("--frames", type=int, default=250)
     ap.add_argument("--repeats", type=int, default=3)
@@ -280,8 +303,8 @@ def main() -> None:
     ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "arstream-bench-pipeline"))
     ap.add_argument("--write", action="store_true", help="write the figures into bench/README.md")
     args = ap.parse_args()
-    if args.plain:
-        plain(*args.plain)
+    if args.plain or args.plain_keep_b:
+        plain(*(args.plain or args.plain_keep_b), keep_b_frames=bool(args.plain_keep_b))
         return
     os.makedirs(args.work, exist_ok=True)
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
