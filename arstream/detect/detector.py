@@ -99,7 +99,7 @@ class Detector:
         self.min_grass = float(min_grass)
         self.max_ellipses = int(max_ellipses)
         self.grass_model = GrassModel()
-        self._small = np.empty((h, w, 3), np.uint8)
+        self._small = np.empty((h, w, 3), np.uint8) if self.factor > 1 else None  # (the image itself at factor 1)
         self._gray = np.empty((h, w), np.uint8)
         self._tiny = np.empty((th, tw, 3), np.uint8)
         self._tiny_gray = np.empty((th, tw), np.uint8)
@@ -218,7 +218,7 @@ class Detector:
         self.frames += 1
         t0 = time.perf_counter()
         w, h = self.work_size
-        small = shrink(image, (w, h), dst=self._small)
+        small = image if self.factor == 1 else shrink(image, (w, h), dst=self._small)  # (read only below)
         tiny = cv2.resize(small, self.tiny_size, dst=self._tiny, interpolation=cv2.INTER_LINEAR)
         g = grass_masks(tiny, self.grass_model, min_fraction=self.min_grass, bufs=self._gbufs)
         t1 = time.perf_counter()
