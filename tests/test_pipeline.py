@@ -539,6 +539,25 @@ def test_render_clip_draws_known_cameras(small, tmp_path, key):
     assert changed[3] < 20  # the lost frame: only re-encoding noise
 
 
+@pytest.mark.parametrize("command", ["process", "render"])
+def test_no_keep_b_frames_leaves_the_types_to_x264(small, tmp_path, command):
+    """``--no-keep-b-frames`` is the library's ``keep_b_frames=False``; by default
+    the input's B-frames stay B-frames (the cameras, and so the frames given to
+    x264, are the same either way)."""
+    src = small / "clip.mp4"
+    args = [command, str(src), "-q"] + (["--cameras", str(small / "truth.jsonl")] if command == "render" else [])
+    assert cli(*args, "-o", str(tmp_path / "free.mp4"), "--no-keep-b-frames") == 0
+    assert cli(*args, "-o", str(tmp_path / "kept.mp4")) == 0
+    if command == "process":
+        arstream.process(src, tmp_path / "lib.mp4", keep_b_frames=False)
+    else:
+        arstream.render_clip(src, small / "truth.jsonl", tmp_path / "lib.mp4", keep_b_frames=False)
+    assert _packets(tmp_path / "free.mp4") == _packets(tmp_path / "lib.mp4")
+    types_in = picture_types(src)
+    assert all(t == "B" for s, t in zip(types_in, picture_types(tmp_path / "kept.mp4")) if s == "B")
+    assert _packets(tmp_path / "free.mp4") != _packets(tmp_path / "kept.mp4")
+
+
 @pytest.mark.parametrize("name, words", [("o.xyz", "Could not determine output format"), ("noext", "give the file an extension")])
 def test_bad_output_paths_are_one_line_errors(small, tmp_path, capsys, name, words):
     assert cli("process", str(small / "clip.mp4"), "-o", str(tmp_path / name), "-q") == 2
