@@ -56,7 +56,7 @@ and then writes the clip's done record ``DIR/.arstream-batch/done/<name>.json``
 (temporary name + rename, so it is whole or absent). A clip is *complete*
 when its done record exists and matches: the same input (path, size,
 modification time), the same options (scene file and its content, lag,
-crf, preset, audio, frames) and both outputs present with the recorded
+crf, preset, audio, B-frames kept, frames) and both outputs present with the recorded
 sizes. Complete clips are skipped (``force=True`` redoes them); anything
 else — no record, a leftover work folder, an output under its final name
 without a record (a kill between the renames), an edited input — is redone.
@@ -407,7 +407,7 @@ def is_complete(out_dir, clip: Clip, params: dict) -> dict | None:
     return done["record"]
 
 
-def _params(*, scene, lag, crf, preset, audio, max_frames) -> dict:
+def _params(*, scene, lag, crf, preset, audio, keep_b_frames, max_frames) -> dict:
     """The options that shape a clip's outputs (a change redoes the clip)."""
     sha = None
     if scene is not None:
@@ -420,6 +420,7 @@ def _params(*, scene, lag, crf, preset, audio, max_frames) -> dict:
         "crf": int(crf),
         "preset": str(preset),
         "audio": bool(audio),
+        "keep_b_frames": bool(keep_b_frames),
         "max_frames": None if max_frames is None else int(max_frames),
     }
 
@@ -493,7 +494,7 @@ def process_clip(job: dict, progress_board=None) -> dict:
     Parameters
     ----------
     job : dict with ``input`` (path), ``name`` (output name), ``out_dir``,
-        ``params`` (as recorded: scene, lag, crf, preset, audio, max_frames)
+        ``params`` (as recorded: scene, lag, crf, preset, audio, keep_b_frames, max_frames)
     progress_board : optional Ray actor handle with ``update.remote(name, done, total)``
         (local workers report through the queue their initializer was given)
 
@@ -539,6 +540,7 @@ def process_clip(job: dict, progress_board=None) -> dict:
                 crf=params["crf"],
                 preset=params["preset"],
                 audio=params["audio"],
+                keep_b_frames=params["keep_b_frames"],
                 max_frames=params["max_frames"],
                 progress=reporter,
                 handle_signals=False,
@@ -1040,6 +1042,7 @@ def run(
     crf: int = 20,
     preset: str = "veryfast",
     audio: bool = True,
+    keep_b_frames: bool = True,
     max_frames: int | None = None,
     progress: Callable[[BatchProgress], None] | None = None,
     on_clip: Callable[[dict], None] | None = None,
@@ -1057,7 +1060,7 @@ def run(
     address : Ray cluster to join (``ray`` engine; default: start a local Ray)
     workers : clips at once (default: the cores, or the Ray cluster's CPUs)
     force : redo clips that are already complete
-    lag, crf, preset, audio, max_frames : as :func:`arstream.process`
+    lag, crf, preset, audio, keep_b_frames, max_frames : as :func:`arstream.process`
     progress : callable(:class:`BatchProgress`), about 4 times a second
     on_clip : callable(record), as each clip finishes (skipped clips first)
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
@@ -1100,7 +1103,7 @@ def run(
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise InputError(f"output folder {out_dir} is a file")
     paths = collect(inputs, exclude=out_dir)
-    params = _params(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, max_frames=max_frames)
+    params = _params(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames, max_frames=max_frames)
     try:
         os.makedirs(out_dir, exist_ok=True)
     except OSError as exc:

@@ -60,6 +60,10 @@ def i420_planes(yuv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, n
     )
 
 
+# FFmpeg's picture types (AVPictureType) that a Frame reports
+_PICTURE_TYPES = {int(av.video.frame.PictureType.I): "I", int(av.video.frame.PictureType.P): "P", int(av.video.frame.PictureType.B): "B"}
+
+
 class Frame:
     """One decoded frame.
 
@@ -321,10 +325,6 @@ class VideoSource:
                 vf = vf.reformat(format="yuv420p")
             return Frame(index, t, yuv=vf.to_ndarray(), ts=ts, width=w, height=h, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
         return Frame(index, t, vf.to_ndarray(format="bgr24"), ts=ts, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
-
-
-# FFmpeg's picture types (AVPictureType) that a Frame reports
-_PICTURE_TYPES = {int(av.video.frame.PictureType.I): "I", int(av.video.frame.PictureType.P): "P", int(av.video.frame.PictureType.B): "B"}
 
 
 def _reason(exc: BaseException) -> str:

@@ -222,6 +222,9 @@ def test_changed_input_or_options_redo_the_clip(archive, local_out, tmp_path):
     os.utime(src / "b" / "clip.mp4", ns=(1, 1))
     s = batch.run([src], out, workers=2, max_frames=3, handle_signals=False)
     assert [r["skipped"] for r in s.clips] == [True, False]
+    # an encoder option (the input's B-frames left to x264): redone
+    s = batch.run([src], out, workers=2, max_frames=3, keep_b_frames=False, handle_signals=False)
+    assert [r["skipped"] for r in s.clips] == [False, False]
 
 
 def test_damaged_input_is_kept_reported_and_not_redone(archive, tmp_path):

@@ -9,18 +9,16 @@ import sys
 from typing import Callable
 
 
-def add_encoder_arguments(p, *, keep_b_frames: bool = True) -> None:
-    """The output video's options: ``--crf``, ``--preset``, ``--no-audio`` and
-    (``keep_b_frames``) ``--no-keep-b-frames``."""
+def add_encoder_arguments(p) -> None:
+    """The output video's options: ``--crf``, ``--preset``, ``--no-audio``, ``--no-keep-b-frames``."""
     p.add_argument("--crf", type=int, default=20, help="x264 quality, lower is better (default: 20)")
     p.add_argument("--preset", default="veryfast", help="x264 speed preset (default: veryfast)")
     p.add_argument("--no-audio", action="store_true", help="drop the audio instead of copying it")
-    if keep_b_frames:
-        p.add_argument(
-            "--no-keep-b-frames",
-            action="store_true",
-            help="let x264 choose every frame's type (default: the input's B-frames stay B-frames, which keeps its frame pattern: a smaller output, closer to the input)",
-        )
+    p.add_argument(
+        "--no-keep-b-frames",
+        action="store_true",
+        help="let x264 choose every frame's type (default: the input's B-frames stay B-frames, which keeps its frame pattern: a smaller output, closer to the input)",
+    )
 
 
 def analysis_width(args) -> int | None:

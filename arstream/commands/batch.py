@@ -59,7 +59,7 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, metavar="N", help="clips at once (default: the cores, or the Ray cluster's CPUs)")
     p.add_argument("--force", action="store_true", help="redo clips whose outputs are already complete")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
-    add_encoder_arguments(p, keep_b_frames=False)
+    add_encoder_arguments(p)
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop each clip after N frames")
     p.add_argument("--json", action="store_true", help="print the batch summary as JSON on stdout")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no line per clip")
@@ -135,6 +135,7 @@ def run(args) -> int:
             crf=args.crf,
             preset=args.preset,
             audio=not args.no_audio,
+            keep_b_frames=not args.no_keep_b_frames,
             max_frames=args.frames,
             progress=bar if bar.enabled else None,
             on_clip=on_clip,
