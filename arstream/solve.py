@@ -27,6 +27,7 @@ pan, tilt, roll and f only — optionally with one radial coefficient k1.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from itertools import combinations
 
@@ -36,7 +37,7 @@ import scipy.optimize
 
 from arstream.kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
 from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
-from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conic
+from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conics
 from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
 from geometry.pitch import Arc, PitchModel
@@ -86,28 +87,35 @@ def _candidate_vanishing_lines(En: np.ndarray, phi: float) -> list[np.ndarray]:
     joining each point to its conjugate is a pair of *real* lines, i.e. an
     indefinite rank-2 matrix; the other two are conjugate line pairs
     (semi-definite). The candidate vanishing lines are that pair's lines
-    (normalised coordinates).
+    (normalised coordinates): a list of two (3,) unit lines, or empty.
     """
-    omega = np.array([1.0, 1.0, phi * phi])
-    lams = np.linalg.eigvals(En / omega[:, None])
-    best, score = None, 0.0
-    for lam in lams:
-        if abs(lam.imag) > 1e-9 * max(1.0, abs(lam)):
-            continue
-        D = En - lam.real * np.diag(omega)
-        w = np.linalg.eigvalsh(D)
-        s = min(-w[0], w[2])  # both signs present: a real line pair
-        if s > score:
-            best, score = D, s
-    if best is None:
-        return []
-    g, h = split_degenerate_conic(best)
-    out = []
-    for l in (g, h):
-        k = np.argmax(np.abs(l))
-        l = np.real(l * np.conj(l[k]) / abs(l[k]))
-        out.append(l / np.linalg.norm(l))
-    return out
+    lines, found = _candidate_vanishing_lines_at(En, np.array([phi], dtype=np.float64))
+    return list(lines[0]) if found[0] else []
+
+
+def _candidate_vanishing_lines_at(En: np.ndarray, phis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_candidate_vanishing_lines` at P focal lengths ``phis`` (P,) at once
+    (the solver's grid): lines (P, 2, 3) and ``found`` (P,) bool (where False,
+    no real line pair and the lines are meaningless)."""
+    P = len(phis)
+    omega = np.ones((P, 3))
+    omega[:, 2] = phis * phis
+    lams = np.linalg.eigvals(En[None] / omega[:, :, None])  # (P, 3): the pencil's degenerate members
+    real = np.abs(lams.imag) <= 1e-9 * np.maximum(1.0, np.abs(lams))
+    D = En - lams.real[:, :, None, None] * (omega[:, None, :, None] * np.eye(3))  # (P, 3, 3, 3)
+    w = np.linalg.eigvalsh(D)
+    score = np.where(real, np.minimum(-w[..., 0], w[..., 2]), 0.0)  # both signs present: a real line pair
+    best = np.argmax(score, axis=1)  # (the first of equals)
+    rows = np.arange(P)
+    found = score[rows, best] > 0.0
+    lines = np.zeros((P, 2, 3))
+    if found.any():
+        g, h = split_degenerate_conics(D[rows, best][found])
+        gh = np.stack([g, h], axis=1)  # (F, 2, 3) complex, real up to a phase
+        top = np.take_along_axis(gh, np.argmax(np.abs(gh), axis=2)[..., None], axis=2)
+        gh = np.real(gh * np.conj(top) / np.abs(top))
+        lines[found] = gh / np.linalg.norm(gh, axis=2, keepdims=True)
+    return lines, found
 
 
 def _g(En_inv: np.ndarray, ln: np.ndarray, lv: np.ndarray) -> float:
@@ -167,11 +175,15 @@ def solve_from_circle(
     # follow the two candidate lines over the grid by continuity
     tracks: list[list] = []
     prev = None
-    for phi in phis:
-        try:
-            cands = _candidate_vanishing_lines(En, phi)
-        except ValueError:
-            cands = []
+    try:
+        grid, found = _candidate_vanishing_lines_at(En, phis)
+    except ValueError:  # no convergence at some phi (LinAlgError): each on its own
+        grid, found = np.zeros((len(phis), 2, 3)), np.zeros(len(phis), bool)
+        for j in range(len(phis)):
+            with contextlib.suppress(ValueError):
+                grid[j : j + 1], found[j : j + 1] = _candidate_vanishing_lines_at(En, phis[j : j + 1])
+    for phi, lines, ok in zip(phis, grid, found):
+        cands = list(lines) if ok else []
         if len(cands) != 2:
             prev = None
             tracks.append([None, None])
@@ -696,7 +708,11 @@ def cameras_from_line_hypotheses(
     along_idx = sorted(along_idx, key=lambda k: -(-(L[k][0] * c[0] + L[k][2]) / L[k][1]) if abs(L[k][1]) > 1e-9 else 0.0)
     across_idx = sorted(across_idx, key=lambda k: -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else 0.0)
     half_len = pitch.length / 2
-    cams = []
+    # every ordered assignment, of both halves, grouped by its number of lines:
+    # one batched solve per group (the many small batches' overheads cost as
+    # much as the solves); the cameras come back in the assignments' order
+    groups: dict[int, tuple[list, list, list]] = {}
+    count = 0
     for side in ("left", "right"):
         across = [pitch[n].line for n in ("halfway_line", f"penalty_area_{side}_front", f"goal_area_{side}_front", f"goal_line_{side}")]
         if side == "left":
@@ -708,12 +724,20 @@ def cameras_from_line_hypotheses(
                     continue
                 dst = np.array([L[k] for k in across_idx[:na]] + [L[k] for k in along_idx[:nb]])
                 src = np.array([[across[m] for m in ma] + [along[m] for m in mb] for ma in combinations(range(len(across)), na) for mb in combinations(range(len(along)), nb)])
-                # all assignments at once; only those with a plausible focal length decomposed
-                Hs, ok = homographies_from_lines(src, dst)
-                poses = decompose_homographies(Hs[ok], principal_point)
-                C, f = poses.centre, poses.focal
-                # valid, above the pitch behind the near touchline, a plausible focal length
-                good = poses.ok & (C[:, 1] < -pitch.width / 2 - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < half_len) & (f > 0.3 * W) & (f < 12 * W)
-                for k in np.flatnonzero(good):
-                    cams.append(Camera(K=intrinsic_matrix(float(f[k]), *principal_point), R=poses.R[k], t=poses.t[k]))
-    return cams
+                srcs, dsts, order = groups.setdefault(na + nb, ([], [], []))
+                srcs.append(src)
+                dsts.append(np.broadcast_to(dst, src.shape))
+                order.append(count + np.arange(len(src)))
+                count += len(src)
+    found: list[tuple[int, Camera]] = []
+    for srcs, dsts, order in groups.values():
+        Hs, ok = homographies_from_lines(np.concatenate(srcs), np.concatenate(dsts))
+        # only those with a plausible focal length decomposed
+        poses = decompose_homographies(Hs[ok], principal_point)
+        C, f = poses.centre, poses.focal
+        # valid, above the pitch behind the near touchline, a plausible focal length
+        good = poses.ok & (C[:, 1] < -pitch.width / 2 - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < half_len) & (f > 0.3 * W) & (f < 12 * W)
+        rank = np.concatenate(order)[ok]
+        found += [(int(rank[k]), Camera(K=intrinsic_matrix(float(f[k]), *principal_point), R=poses.R[k], t=poses.t[k])) for k in np.flatnonzero(good)]
+    found.sort(key=lambda rc: rc[0])
+    return [cam for _, cam in found]

@@ -50,6 +50,7 @@ __all__ = [
     "intersect_conics",
     "conic_conditioning",
     "split_degenerate_conic",
+    "split_degenerate_conics",
     "tangents_from_point",
     "double_contact",
     "real_points",
@@ -704,33 +705,50 @@ def split_degenerate_conic(D) -> tuple[np.ndarray, np.ndarray]:
     -------
     (g, h) : two (3,) lines (complex128 in general); equal for a double line.
     """
+    g, h = split_degenerate_conics(np.asarray(D)[None])
+    return g[0], h[0]
+
+
+def split_degenerate_conics(D) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`split_degenerate_conic` for K conics at once.
+
+    Parameters
+    ----------
+    D : (K, 3, 3) symmetric, each rank 1 or 2 (real or complex)
+
+    Returns
+    -------
+    (g, h) : (K, 3) complex128 each, unit norm; ``g[k] == h[k]`` for a double line.
+    """
     D = np.asarray(D, dtype=np.complex128)
-    D = D / np.linalg.norm(D)
-    B = _adjugate(D)
-    if np.linalg.norm(B) < 1e-10:  # rank 1: a double line
-        i = np.argmax(np.abs(np.diag(D)))
-        g = D[i] / np.linalg.norm(D[i])
-        return g, g.copy()
-    i = np.argmax(np.abs(np.diag(B)))
-    beta = np.sqrt(-B[i, i])
-    p = B[:, i] / beta
-    Mp = np.array([[0, p[2], -p[1]], [-p[2], 0, p[0]], [p[1], -p[0], 0]])
+    if D.ndim != 3 or D.shape[1:] != (3, 3):
+        raise ValueError(f"conics must be (K, 3, 3), got {D.shape}")
+    D = D / np.linalg.norm(D, axis=(1, 2))[:, None, None]
+    k = np.arange(len(D))
+    c0, c1, c2 = D[:, :, 0], D[:, :, 1], D[:, :, 2]
+    B = np.stack([_cross(c1, c2), _cross(c2, c0), _cross(c0, c1)], axis=1)  # adjugates
+    double = np.linalg.norm(B, axis=(1, 2)) < 1e-10  # rank 1: a double line
+    i = np.argmax(np.abs(np.diagonal(B, axis1=1, axis2=2)), axis=1)
+    beta = np.sqrt(-B[k, i, i])
+    p = B[k, :, i] / np.where(double, 1.0, beta)[:, None]
+    Mp = np.zeros_like(D)
+    Mp[:, 0, 1], Mp[:, 0, 2], Mp[:, 1, 2] = p[:, 2], -p[:, 1], p[:, 0]
+    Mp[:, 1, 0], Mp[:, 2, 0], Mp[:, 2, 1] = -p[:, 2], p[:, 1], -p[:, 0]
     R1 = D + Mp
-    i, j = np.unravel_index(np.argmax(np.abs(R1)), R1.shape)
-    g = R1[i, :]
-    h = R1[:, j]
-    return g / np.linalg.norm(g), h / np.linalg.norm(h)
+    i, j = np.divmod(np.argmax(np.abs(R1).reshape(-1, 9), axis=1), 3)
+    g, h = R1[k, i, :], R1[k, :, j]
+    if double.any():
+        r = np.argmax(np.abs(np.diagonal(D, axis1=1, axis2=2)), axis=1)
+        g[double] = h[double] = D[k, r][double]
+    return g / np.linalg.norm(g, axis=1, keepdims=True), h / np.linalg.norm(h, axis=1, keepdims=True)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (np.cross is slow for single vectors)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-def _adjugate(A: np.ndarray) -> np.ndarray:
-    """Adjugate (transpose of the cofactor matrix) of a 3x3 matrix."""
-    c0, c1, c2 = A[:, 0], A[:, 1], A[:, 2]
-    return np.array([_cross(c1, c2), _cross(c2, c0), _cross(c0, c1)])
+    """Cross product of 3-vectors along the last axis, (..., 3) each (np.cross
+    is slow for single vectors and small stacks)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def conic_conditioning(*conics) -> np.ndarray:

@@ -179,6 +179,28 @@ def test_split_degenerate_conic():
     assert got == want
 
 
+def _same_line(u, v) -> bool:
+    """u ~ v as projective lines (complex allowed): |<u, v>| = |u| |v|."""
+    return abs(abs(np.vdot(u, v)) - np.linalg.norm(u) * np.linalg.norm(v)) < 1e-9 * np.linalg.norm(u) * np.linalg.norm(v)
+
+
+def test_split_degenerate_conics_batch():
+    rng = np.random.default_rng(3)
+    g_real, h_real = rng.normal(size=3), rng.normal(size=3)
+    z = rng.normal(size=3) + 1j * rng.normal(size=3)  # a complex-conjugate pair (a real point)
+    pairs = [(g_real, h_real), (z, np.conj(z)), (g_real, g_real), (np.array([0.0, 1.0, -2.0]), np.array([1.0, 0.0, -5.0]))]
+    D = np.array([np.outer(g, h) + np.outer(h, g) for g, h in pairs])
+    gs, hs = gc.split_degenerate_conics(D * np.array([1.0, 3.0, -2.0, 1e-6])[:, None, None])  # any scale
+    assert gs.shape == hs.shape == (4, 3)
+    for k, (g, h) in enumerate(pairs):
+        assert (_same_line(gs[k], g) and _same_line(hs[k], h)) or (_same_line(gs[k], h) and _same_line(hs[k], g))
+        assert np.allclose(np.linalg.norm(gs[k]), 1.0) and np.allclose(np.linalg.norm(hs[k]), 1.0)
+        a, b = gc.split_degenerate_conic(D[k])  # the single-conic form agrees
+        assert _same_line(a, gs[k]) and _same_line(b, hs[k])
+    with pytest.raises(ValueError, match=r"\(K, 3, 3\)"):
+        gc.split_degenerate_conics(np.eye(3))
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_tangents_from_point(seed):
     rng = np.random.default_rng(seed)
