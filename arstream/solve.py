@@ -183,11 +183,11 @@ def solve_from_circle(
             with contextlib.suppress(ValueError):
                 grid[j : j + 1], found[j : j + 1] = _candidate_vanishing_lines_at(En, phis[j : j + 1])
     for phi, lines, ok in zip(phis, grid, found):
-        cands = list(lines) if ok else []
-        if len(cands) != 2:
+        if not ok:
             prev = None
             tracks.append([None, None])
             continue
+        cands = list(lines)
         if prev is not None and abs(cands[0] @ prev[1]) > abs(cands[0] @ prev[0]):
             cands = cands[::-1]
         # keep signs continuous

@@ -7,8 +7,8 @@ The initialiser runs on a shot's first frame (the start of a clip, after a
 cut, when tracking fails), so its time is a stall of the main thread there:
 frames queue up offline, and a live stream drops them. For each preset clip
 (``arstream.synth``, seed 11, generated once under ``--workdir``) the frames
-go through the detector and the live tracker as in ``arstream stream`` (640 px
-analysis frame, lazy detection); every call the tracker makes to the
+go through the detector and the live tracker (640 px analysis frame, lazy
+detection, the tracker's hints as of the frame before); every call the tracker makes to the
 initialiser is recorded with its inputs and then timed again, warm, with the
 numba kernels loaded, ``--repeats`` times (median). Reported per preset: the
 calls and their median time, and the median time of the two searches inside
