@@ -5,7 +5,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["sample_bilinear", "shrink"]
+__all__ = ["THUMBNAIL_SIZE", "grey_thumbnail", "sample_bilinear", "shrink"]
+
+#: (w, h) of :func:`grey_thumbnail` (at most: smaller images keep their size)
+THUMBNAIL_SIZE = (64, 36)
 
 
 def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None) -> np.ndarray:
@@ -47,6 +50,33 @@ def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None
         img = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
         return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_LINEAR)
     return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_AREA)
+
+
+def grey_thumbnail(image: np.ndarray, *, video_range: bool = False) -> np.ndarray:
+    """A small grey copy of a frame, for comparing whole frames (a shot cut).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 BGR, or (H, W) uint8 grey
+    video_range : ``image`` is grey in video (limited) range, the luma plane of
+        a decoded frame (Y, 16-235, BT.601): mapped to full-range grey levels,
+        those of ``cv2.COLOR_BGR2GRAY`` of the frame in BGR (the same within
+        rounding, away from colours that clip in BGR)
+
+    Returns
+    -------
+    (h, w) float32 grey levels (0-255), :data:`THUMBNAIL_SIZE` or the image's
+    size where that is smaller; area-averaged (:func:`shrink`).
+    """
+    size = (min(THUMBNAIL_SIZE[0], image.shape[1]), min(THUMBNAIL_SIZE[1], image.shape[0]))
+    thumb = shrink(image, size)
+    if thumb.ndim == 3:
+        thumb = cv2.cvtColor(thumb, cv2.COLOR_BGR2GRAY)
+    thumb = thumb.astype(np.float32)
+    if video_range:
+        thumb -= 16.0
+        thumb *= 255.0 / 219.0
+    return thumb
 
 
 def sample_bilinear(img: np.ndarray, q: np.ndarray, *, border: int = cv2.BORDER_CONSTANT) -> np.ndarray:

@@ -68,7 +68,7 @@ import numpy as np
 
 from arstream.errors import ArstreamError, InputError
 from arstream.estimate import CameraEstimate
-from arstream.imaging import shrink
+from arstream.imaging import grey_thumbnail, shrink
 from arstream.sink import JsonlWriter, VideoSink
 from arstream.source import Frame, VideoSource, i420_planes
 
@@ -125,6 +125,8 @@ class Item:
     owned : True when ``detections`` and ``matte`` are private copies (not views
         into buffers the detector reuses)
     analysis : the frame at the analysis size (BGR), made once for detection and tracking
+    thumbnail : the frame's :func:`arstream.imaging.grey_thumbnail` (the tracker's
+        shot-cut test), made with ``analysis`` from the decoder's luma, or None
     """
 
     frame: Frame
@@ -137,6 +139,7 @@ class Item:
     cpu: dict = field(default_factory=dict)
     owned: bool = False
     analysis: np.ndarray | None = None
+    thumbnail: np.ndarray | None = None
 
     @property
     def index(self) -> int:
@@ -186,7 +189,10 @@ class Analysis:
 
     The scaled frame comes straight from the decoder's I420 planes (luma and
     chroma resized on their own, one colour conversion at the small size):
-    the full-size BGR frame is never made on this path.
+    the full-size BGR frame is never made on this path. :meth:`prepare` makes
+    it, on whichever thread calls it: :func:`process` calls it on the decode
+    thread, just after the frame was copied out of the decoder (its planes
+    are still in that core's cache).
 
     Parameters
     ----------
@@ -208,21 +214,30 @@ class Analysis:
         #: (3, 3) analysis pixels -> frame pixels
         self.S = np.array([[self.sx, 0.0, (self.sx - 1) / 2], [0.0, self.sy, (self.sy - 1) / 2], [0.0, 0.0, 1.0]])
 
+    def prepare(self, frame: Frame) -> dict:
+        """The :class:`Item` fields made from ``frame`` for detection and tracking:
+        ``analysis`` (BGR (h, w, 3) at the analysis size) and, from an I420
+        frame, ``thumbnail`` (the tracker's, from the scaled luma). Empty at full
+        resolution (the frame itself is the analysis image)."""
+        if self.full:
+            return {}
+        if frame.yuv is not None and not frame.has_image:
+            buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
+            src, dst = i420_planes(frame.yuv, frame.width, frame.height), i420_planes(buf, self.w, self.h)
+            shrink(src[0], (self.w, self.h), dst=dst[0])
+            for k in (1, 2):
+                shrink(src[k], (self.w // 2, self.h // 2), dst=dst[k])
+            return {"analysis": cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420), "thumbnail": grey_thumbnail(dst[0], video_range=True)}
+        return {"analysis": shrink(frame.image, (self.w, self.h))}
+
     def image(self, item: Item) -> np.ndarray:
-        """BGR (h, w, 3) of the item's frame at the analysis size (cached on the item)."""
+        """BGR (h, w, 3) of the item's frame at the analysis size (cached on the
+        item, with its thumbnail: :meth:`prepare`, unless that ran already)."""
         if self.full:
             return item.frame.image
         if item.analysis is None:
-            f = item.frame
-            if f.yuv is not None and not f.has_image:
-                buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
-                src, dst = i420_planes(f.yuv, f.width, f.height), i420_planes(buf, self.w, self.h)
-                shrink(src[0], (self.w, self.h), dst=dst[0])
-                for k in (1, 2):
-                    shrink(src[k], (self.w // 2, self.h // 2), dst=dst[k])
-                item.analysis = cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420)
-            else:
-                item.analysis = shrink(f.image, (self.w, self.h))
+            for k, v in self.prepare(item.frame).items():
+                setattr(item, k, v)
         return item.analysis
 
     def camera(self, cam):
@@ -478,7 +493,8 @@ class TrackStage(Stage):
         if self.tracker is None:
             item.estimate = CameraEstimate.lost(item.index, item.pts, reason="no tracker")
             return [item]
-        estimates = self.tracker.process(item.index, item.pts, self.analysis.image(item), item.detections)
+        image = self.analysis.image(item)  # (first: it may make the thumbnail)
+        estimates = self.tracker.process(item.index, item.pts, image, item.detections, thumbnail=item.thumbnail)
         self.held[item.index] = item
         out = self._release(estimates)
         if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
@@ -488,7 +504,7 @@ class TrackStage(Stage):
             if det is not None and getattr(det, "line_small", None) is not None:
                 item.lines = det.line_small if item.owned else det.line_small.copy()
             item.detections = None
-            item.analysis = None
+            item.analysis = item.thumbnail = None
             if item.frame.yuv is not None:
                 item.frame._image = None  # the BGR copy is rebuilt if anyone asks
             if len(self.held) > self.max_held:
@@ -970,7 +986,7 @@ class Interrupted(KeyboardInterrupt):
 
 # --------------------------------------------------------------------------- the runner
 class _Mailbox:
-    """Decode -> main hand-over: a bounded queue of ("frame", Frame, t) / ("audio", pkt) / ("end",).
+    """Decode -> main hand-over: a bounded queue of ("frame", Frame, t, fields) / ("audio", pkt) / ("end",).
 
     ``latest_only``: a new frame replaces a waiting one (counted in ``dropped``).
     """
@@ -1050,10 +1066,27 @@ class Pipeline:
     decode_nice : int, added to the decode thread's niceness (and its
         decoder's threads'), see :data:`WORKER_NICE`; 0 for live sources,
         whose reader must keep up with the network
+    prepare : callable(Frame) -> dict, optional, run on the decode thread with
+        each frame as it is decoded (while its planes are still in that core's
+        cache); the dict holds :class:`Item` fields for the frame's item (such
+        as :meth:`Analysis.prepare`'s). Its time counts as the frame's decode time.
     """
 
-    def __init__(self, source: VideoSource, stages: list[Stage], *, realtime: bool = False, queue_size: int = 4, progress: Callable | None = None, max_frames: int | None = None, pool_threads: int | None = 1, decode_nice: int = 0):
+    def __init__(
+        self,
+        source: VideoSource,
+        stages: list[Stage],
+        *,
+        realtime: bool = False,
+        queue_size: int = 4,
+        progress: Callable | None = None,
+        max_frames: int | None = None,
+        pool_threads: int | None = 1,
+        decode_nice: int = 0,
+        prepare: Callable[[Frame], dict] | None = None,
+    ):
         self.source = source
+        self.prepare = prepare
         self.pool_threads = pool_threads
         self.decode_nice = int(decode_nice)
         self.stages = list(stages)
@@ -1093,7 +1126,12 @@ class Pipeline:
                     elif wait > 0:  # ahead of the clock (a file, or a burst from the network): wait
                         if self._stop.wait(wait):
                             break
-                if not box.put(("frame", frame, time.perf_counter())):
+                fields = None
+                if self.prepare is not None:
+                    t0 = time.perf_counter()
+                    fields = self.prepare(frame)
+                    frame.decode_ms += (time.perf_counter() - t0) * 1e3
+                if not box.put(("frame", frame, time.perf_counter(), fields)):
                     break
                 n += 1
                 if self.max_frames is not None and n >= self.max_frames:
@@ -1214,11 +1252,11 @@ class Pipeline:
                         for st in self._audio_stages:
                             st.audio(msg[1])
                         continue
-                    frame, t_put = msg[1], msg[2]
+                    frame, t_put, fields = msg[1], msg[2], msg[3]
                     if self.realtime and time.perf_counter() - t_put > 2 * interval:
                         self._late += 1  # too old to show: drop it rather than fall behind
                         continue
-                    item = Item(frame)
+                    item = Item(frame, **(fields or {}))
                     item.timings["decode"] = frame.decode_ms
                     self._push([item])
                 if self._decode_error is not None:
@@ -1410,7 +1448,9 @@ def process(
             ],
             src,
         )
-        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames, decode_nice=WORKER_NICE)
+        # (the analysis frame on the decode thread, from the planes it just copied)
+        prepare = an.prepare if _has("arstream.detect") else None
+        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames, decode_nice=WORKER_NICE, prepare=prepare)
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)

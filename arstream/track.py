@@ -52,7 +52,7 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
-from arstream.imaging import sample_bilinear, shrink
+from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
@@ -433,10 +433,16 @@ class Tracker:
             self.centre = None
             self._centres.clear()
 
-    def process(self, index: int, pts: float, image: np.ndarray | None, detections) -> list[CameraEstimate]:
+    def process(self, index: int, pts: float, image: np.ndarray | None, detections, *, thumbnail: np.ndarray | None = None) -> list[CameraEstimate]:
         """Solve frame ``index``; returns the estimates that became final (one per call
-        in live mode, lagging by ``lag`` frames in offline mode)."""
-        est = self._solve(index, pts, image, detections)
+        in live mode, lagging by ``lag`` frames in offline mode).
+
+        ``image``: the frame (BGR, the tracker's size) or None; ``detections``:
+        the detector's result for it. ``thumbnail``: the frame's
+        :func:`arstream.imaging.grey_thumbnail`, when the caller has it (the shot-cut
+        test; by default made from ``image``). Give it for every frame of a
+        clip or for none: the test compares consecutive thumbnails."""
+        est = self._solve(index, pts, image, detections, thumbnail)
         self.stats[est.status] += 1
         kf = self._kf
         self._motion_last = None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)
@@ -486,18 +492,16 @@ class Tracker:
         return est
 
     # --- the per-frame logic ---------------------------------------------------------
-    def _is_cut(self, image) -> bool:
-        if image is None:
-            return False
-        thumb = shrink(image, (min(64, image.shape[1]), min(36, image.shape[0])))
-        if thumb.ndim == 3:
-            thumb = cv2.cvtColor(thumb, cv2.COLOR_BGR2GRAY)
-        thumb = thumb.astype(np.float32)
+    def _is_cut(self, image, thumb=None) -> bool:
+        if thumb is None:
+            if image is None:
+                return False
+            thumb = grey_thumbnail(image)
         prev, self._prev_thumb = self._prev_thumb, thumb
         return prev is not None and float(np.mean(np.abs(thumb - prev))) > self.cfg.cut_threshold
 
-    def _solve(self, index: int, pts: float, image, det) -> CameraEstimate:
-        cut = self._is_cut(image)
+    def _solve(self, index: int, pts: float, image, det, thumbnail=None) -> CameraEstimate:
+        cut = self._is_cut(image, thumbnail)
         if cut:
             self.stats["cuts"] += 1
             self.reset()

@@ -63,3 +63,25 @@ def test_sample_bilinear_matches_the_formula():
     assert np.all(sample_bilinear(img, off) == 0)
     assert np.allclose(sample_bilinear(img, off, border=cv2.BORDER_REPLICATE), [img[10, 0], img[3, 52]])
     assert sample_bilinear(img, np.zeros((0, 2))).shape == (0,)
+
+
+def test_grey_thumbnail_of_the_luma_plane_matches_the_bgr_frames():
+    # an I420 frame with smooth colours that stay inside BGR's range: the thumbnail
+    # of its luma plane (video range) is that of the frame in BGR, within rounding
+    # (the BGR path rounds at the colour conversion, at each halving and at grey)
+    from arstream.imaging import THUMBNAIL_SIZE, grey_thumbnail
+
+    H, W = 360, 640
+    y, x = np.mgrid[0:H, 0:W]
+    Y = (80 + 90 * (x / W) + 25 * np.sin(y / 17.0)).astype(np.uint8)
+    U = (128 + 12 * np.cos(x[::2, ::2] / 40.0)).astype(np.uint8)
+    V = (128 + 10 * np.sin(y[::2, ::2] / 30.0)).astype(np.uint8)
+    yuv = np.concatenate([Y.ravel(), U.ravel(), V.ravel()]).reshape(H * 3 // 2, W)
+    bgr = cv2.cvtColor(yuv, cv2.COLOR_YUV2BGR_I420)
+    assert 0 < bgr.min() and bgr.max() < 255
+    a, b = grey_thumbnail(Y, video_range=True), grey_thumbnail(bgr)
+    assert a.shape == b.shape == THUMBNAIL_SIZE[::-1] and a.dtype == b.dtype == np.float32
+    assert np.abs(a - b).max() < 2.5 and np.abs(a - b).mean() < 0.6
+    assert np.abs(grey_thumbnail(Y) - b).max() > 10  # (the video range is not full range)
+    # a frame smaller than the thumbnail keeps its size
+    assert grey_thumbnail(np.zeros((20, 30), np.uint8)).shape == (20, 30)

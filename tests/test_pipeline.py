@@ -742,3 +742,43 @@ def test_decode_thread_niceness(small, nice):
         src.frames = watched
         s = Pipeline(src, [], decode_nice=nice).run(handle_signals=False)
     assert s.frames == 12 and seen == [min(19, mine + nice)] and niceness() == mine
+
+
+def test_prepare_runs_on_the_decode_thread_and_fills_the_items(small):
+    """``Pipeline(prepare=fn)``: ``fn`` sees every frame on the decode thread and
+    its fields land on the frame's item; :meth:`Analysis.prepare` gives the
+    analysis frame that :meth:`Analysis.image` makes (pixel for pixel) and the
+    thumbnail from the scaled luma, which the tracker takes in place of one made
+    from the analysis frame."""
+    import threading
+
+    from arstream.imaging import grey_thumbnail
+    from arstream.pipeline import Item, Pipeline, Stage
+
+    an = Analysis(320, 180, 160)
+    threads, seen = [], []
+
+    def prepare(frame):
+        threads.append(threading.current_thread().name)
+        return an.prepare(frame)
+
+    class Probe(Stage):
+        name = "probe"
+
+        def process(self, item):
+            again = Item(item.frame)  # (nothing prepared: made here, as before)
+            seen.append((item.index, item.analysis.shape, np.array_equal(item.analysis, an.image(again)), np.abs(item.thumbnail - grey_thumbnail(item.analysis)).max()))
+            assert an.image(item) is item.analysis and np.array_equal(again.thumbnail, item.thumbnail)
+            return [item]
+
+    with VideoSource(small / "clip.mp4") as src:
+        s = Pipeline(src, [Probe()], prepare=prepare).run(handle_signals=False)
+    assert s.frames == 12 and threads == ["arstream-decode"] * 12
+    assert [x[:3] for x in seen] == [(i, (90, 160, 3), True) for i in range(12)]
+    assert max(x[3] for x in seen) < 4.0  # the same frame, within rounding (test_imaging)
+    # full resolution and BGR frames: no thumbnail (the tracker makes its own)
+    assert Analysis(320, 180, None).prepare(None) == {}
+    with VideoSource(small / "clip.mp4", threads=False) as src:
+        f = next(iter(src))
+    f.image  # (a BGR copy made: the BGR path)
+    assert set(an.prepare(f)) == {"analysis"}

@@ -202,6 +202,25 @@ def test_tracker_through_a_shot_cut():
     assert s.coverage > 0.9 and s.median < 0.5
 
 
+
+def test_tracker_takes_the_callers_thumbnails():
+    """The shot-cut test compares consecutive thumbnails: the caller's when given
+    (the pipeline's, from the decoder's luma), else made from the image."""
+    from arstream.imaging import grey_thumbnail
+
+    clip = SynthClip("wide", seed=4, frames=8)
+    imgs = [clip.render(i) for i in range(8)]
+    thumbs = [grey_thumbnail(im) for im in imgs]
+    thumbs[5] = 255.0 - thumbs[5]  # frame 5's thumbnail looks like another shot
+    for given, cuts in ((None, 0), (thumbs, 2)):  # into frame 5's "shot", and out of it
+        tr = Tracker(*SIZE, fps=clip.fps, lag=0)
+        for i in range(8):
+            kw = {} if given is None else {"thumbnail": given[i]}
+            est = tr.process(i, i / clip.fps, imgs[i], truth_detections(clip.camera(i), seed=i), **kw)[0]
+            assert est.status != "lost"
+        assert tr.stats["cuts"] == cuts and tr.stats["inits"] == 1 + cuts
+
+
 def test_tracker_penalty_clip_end_to_end():
     clip = SynthClip("penalty", seed=1, frames=40)
     tr, ests, s = run_tracker(clip)
