@@ -288,24 +288,26 @@ def test_two_quick_signals_count_twice_while_the_main_thread_is_busy():
     # arrived while the main thread was busy in C code (a loaded machine may not
     # schedule it between two quick Ctrl-Cs); the batch still counts both
     sig = batch._Signals()
-    big = np.random.default_rng(0).random(10**7)
+    big = np.random.default_rng(0).random(3 * 10**7)  # (a heapsort of 0.4-1 s)
+    sent = []
 
     def send():
         time.sleep(0.05)
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(0.05)
         os.kill(os.getpid(), signal.SIGINT)
+        sent.append(time.perf_counter())
 
     with sig.installed(True):
         t = threading.Thread(target=send)
-        t.start()
         t0 = time.perf_counter()
+        t.start()
         np.sort(big, kind="heapsort")  # one C call, no handler runs inside it
-        busy = time.perf_counter() - t0
+        t1 = time.perf_counter()
         t.join()
         for _ in range(3):  # the handlers run between bytecodes
             time.sleep(0.01)
-    assert busy > 0.2  # (both signals arrived inside the sort)
+    assert t0 < sent[0] < t1  # (both signals arrived inside the sort)
     assert sig.first == signal.SIGINT and sig.count == 2
 
 @pytest.mark.parametrize("signals", [1, 2], ids=["ctrl-c-finishes-running", "second-ctrl-c-abandons"])
