@@ -202,7 +202,6 @@ def test_tracker_through_a_shot_cut():
     assert s.coverage > 0.9 and s.median < 0.5
 
 
-
 def test_tracker_takes_the_callers_thumbnails():
     """The shot-cut test compares consecutive thumbnails: the caller's when given
     (the pipeline's, from the decoder's luma), else made from the image."""
