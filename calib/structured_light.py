@@ -142,9 +142,17 @@ class LightPlane:
         return X @ self.normal - self.d
 
     def angle_to(self, other: "LightPlane") -> float:
-        """Angle between the normals of two planes, radians."""
-        c = abs(float(self.normal @ other.normal))
-        return float(np.arccos(min(c, 1.0)))
+        """Angle between the normals of two planes, radians, in [0, pi/2].
+
+        ``atan2(|n x n'|, |n . n'|)``: unlike ``arccos(|n . n'|)``, whose
+        smallest non-zero answer is about 1.5e-8 rad (the spacing of doubles
+        below 1), it resolves angles down to about 1e-16 rad.
+        """
+        n0 = np.asarray(self.normal, dtype=np.float64)
+        n1 = np.asarray(other.normal, dtype=np.float64)
+        s = float(np.linalg.norm(np.cross(n0, n1)))
+        c = abs(float(n0 @ n1))
+        return float(np.arctan2(s, c))
 
 
 @dataclass(frozen=True)

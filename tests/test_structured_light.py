@@ -66,9 +66,24 @@ def test_light_plane_canonical_form():
     assert np.allclose(np.linalg.norm(p.normal), 1.0) and p.d > 0
     assert np.allclose(p.normal, PLANE.normal) and np.isclose(p.d, PLANE.d)
     q = SL.LightPlane.from_vector(PLANE.vector * -3.0)
-    assert np.isclose(q.angle_to(PLANE), 0.0, atol=1e-7) and np.isclose(q.d, PLANE.d)
+    # a rescaled copy: the unit normals agree to a few ulps, so the angle is ~1e-16
+    assert q.angle_to(PLANE) < 1e-14 and np.isclose(q.d, PLANE.d)
     with pytest.raises(ValueError, match="the light plane passes through the camera centre"):
         SL.LightPlane(normal=[1.0, 0.0, 0.0], d=0.0)
+
+
+@pytest.mark.parametrize("angle", [1e-12, 1e-9, 1e-6, 0.3, np.pi / 2])
+def test_light_plane_angle_resolves_small_angles(angle):
+    # arccos(|n . n'|) cannot resolve below ~1.5e-8 rad (the spacing of doubles
+    # under 1); the answer must be the rotation to a few ulps of the angle
+    a, b = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    p = SL.LightPlane(normal=a, d=1.0)
+    q = SL.LightPlane(normal=np.cos(angle) * a + np.sin(angle) * b, d=1.0)
+    assert abs(p.angle_to(q) - angle) <= 4 * np.finfo(float).eps * max(angle, 1e-15)
+    assert p.angle_to(q) == q.angle_to(p)
+    # the normals' orientation does not matter: planes, not vectors
+    r = SL.LightPlane(normal=-q.normal, d=-1.0)
+    assert abs(p.angle_to(r) - angle) <= 4 * np.finfo(float).eps * max(angle, 1e-15)
 
 
 def test_stripe_conic_double_contact_and_circular_points():
