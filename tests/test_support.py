@@ -1,0 +1,233 @@
+"""Line support and the jitter proxy (arstream.support): exact thresholds on
+constructed images, round trips on the committed synthetic clip with its exact
+cameras, and analytic camera sequences for the jitter proxy."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.lib.stride_tricks import sliding_window_view
+
+from arstream.sink import read_jsonl
+from arstream.source import VideoSource
+from arstream.support import MIN_POINTS, Support, bright_mask, jitter_proxy, line_support, marking_points, pixel_support
+from geometry.camera import Camera, intrinsic_matrix, ptr_from_rotation, rotation_from_ptr
+from geometry.pitch import PitchModel
+
+SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "wide"
+
+
+# --- bright pixels --------------------------------------------------------------
+def _reference_bright(luma: np.ndarray, threshold_times_225: float) -> np.ndarray:
+    """Bright pixels by brute force: 225 y - (15x15 sum, edges replicated) > 225 * threshold."""
+    y = luma.astype(np.int64)
+    s = sliding_window_view(np.pad(y, 7, mode="edge"), (15, 15)).sum(axis=(2, 3))
+    return 225 * y - s > threshold_times_225
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_bright_pixels_match_brute_force(seed):
+    # few grey levels: many pixels sit exactly on the threshold (225 y - sum == 2700)
+    rng = np.random.default_rng(seed)
+    luma = (rng.integers(0, 4, size=(70, 90)) * 6 + 100).astype(np.uint8)
+    luma[10:60:7, :] = 140
+    got = bright_mask(luma, reach=0)
+    want = _reference_bright(luma, 225 * 12)
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(got, want)
+    # video range: the threshold scaled by 219/255 (10.306 levels)
+    np.testing.assert_array_equal(bright_mask(luma, reach=0, video_range=True), _reference_bright(luma, 225 * 12 * 219 / 255))
+
+
+@pytest.mark.parametrize(
+    "offset, video_range, bright",
+    [
+        # one pixel `offset` above a flat background exceeds its box mean by offset * 224/225
+        (12, False, False),
+        (13, False, True),  # 12.94 > 12
+        (10, True, False),  # 9.96 < 10.31
+        (11, True, True),  # 10.95 > 10.31
+    ],
+)
+def test_threshold_of_a_single_pixel(offset, video_range, bright):
+    luma = np.full((31, 31), 100, np.uint8)
+    luma[15, 15] += offset
+    assert bool(bright_mask(luma, reach=0, video_range=video_range)[15, 15]) is bright
+
+
+@pytest.mark.parametrize("offset, bright", [(25, False), (26, True)])
+def test_border_is_replicated(offset, bright):
+    # a bright first column: replicated, it fills 8 of the box's 15 columns, so the
+    # pixel exceeds its mean by offset * 7/15 (> 12 from 26 levels on)
+    luma = np.full((30, 30), 100, np.uint8)
+    luma[:, 0] += offset
+    assert bool(bright_mask(luma, reach=0)[15, 0]) is bright
+
+
+def test_dilation_reaches_two_pixels():
+    luma = np.full((40, 40), 50, np.uint8)
+    luma[20, 17] = 200
+    m = bright_mask(luma)
+    ys, xs = np.nonzero(m)
+    assert (ys.min(), ys.max(), xs.min(), xs.max()) == (18, 22, 15, 19)
+    assert m.sum() == 25 and m.dtype == bool
+    assert not bright_mask(np.full((40, 40), 50, np.uint8)).any()
+
+
+@pytest.mark.parametrize(
+    "luma, kwargs, message",
+    [
+        (np.zeros((10, 10), np.float32), {}, "luma must be a 2-D uint8 array (H, W), got float32 array of shape (10, 10)"),
+        (np.zeros((10, 10, 3), np.uint8), {}, "luma must be a 2-D uint8 array (H, W), got uint8 array of shape (10, 10, 3)"),
+        ([[1, 2]], {}, "luma must be a 2-D uint8 array (H, W), got list"),
+        (np.zeros((10, 10), np.uint8), {"box": 14}, "box must be an odd integer >= 3, got 14"),
+        (np.zeros((10, 10), np.uint8), {"reach": -1}, "reach must be a non-negative integer, got -1"),
+        (np.zeros((10, 10), np.uint8), {"threshold": float("nan")}, "threshold must be finite and >= 0, got nan"),
+    ],
+)
+def test_bright_mask_rejects(luma, kwargs, message):
+    with pytest.raises(ValueError) as e:
+        bright_mask(luma, **kwargs)
+    assert str(e.value) == message
+
+
+# --- marking points ---------------------------------------------------------------
+def test_marking_points_are_the_markings_without_spots():
+    pitch = PitchModel(100.0, 64.0)
+    P = marking_points(pitch)
+    assert P is marking_points(PitchModel(100.0, 64.0))  # cached per size
+    assert not P.flags.writeable and P.shape[1] == 3 and np.all(P[:, 2] == 0)
+    assert len(P) == sum(len(m.sample(0.25)) for m in (*pitch.segments, *pitch.arcs))
+    for name in ("penalty_mark_left", "penalty_mark_right"):
+        assert np.min(np.hypot(*(P[:, :2] - pitch.spots[name]).T)) > 5.0
+    # consecutive samples of a marking at most 0.25 m apart
+    seg = pitch["touchline_near"].sample(0.25)
+    assert np.max(np.hypot(*np.diff(seg, axis=0).T)) <= 0.25 + 1e-12
+    assert len(marking_points(pitch, 0.5)) < len(P)
+    with pytest.raises(ValueError, match="spacing must be positive, got 0"):
+        marking_points(pitch, 0)
+
+
+# --- line support on constructed masks --------------------------------------------
+def test_pixel_support_counts_points_inside():
+    mask = np.zeros((10, 20), bool)
+    mask[:, :10] = True
+    px = np.array([[0.0, 0.0], [9.4, 9.4], [9.6, 5.0], [19.49, 0.0], [19.5, 0.0], [-0.51, 3.0], [np.nan, 1.0], [5.0, -0.4]])
+    s = pixel_support(px, mask, min_points=1)
+    # inside: (0,0), (9.4,9.4), (9.6->10,5), (19.49->19,0), (5,-0.4->0); supported: the first, second and last
+    assert s == Support(share=3 / 5, n_inside=5, n_supported=3)
+    assert pixel_support(px, mask).share is None  # fewer than MIN_POINTS inside
+    assert pixel_support(np.zeros((0, 2)), mask, min_points=0) == Support(None, 0, 0)
+    with pytest.raises(ValueError, match=r"pixels must have shape \(N, 2\), got \(3,\)"):
+        pixel_support(np.zeros(3), mask)
+
+
+# --- line support on the committed synthetic clip ----------------------------------
+@pytest.fixture(scope="module")
+def sample_frames():
+    """Every 30th frame of samples/wide/clip.mp4 with its exact camera and bright mask."""
+    truth = read_jsonl(SAMPLE / "truth.jsonl")
+    out = []
+    with VideoSource(SAMPLE / "clip.mp4") as src:
+        for f in src:
+            if f.index % 30 == 0:
+                out.append((Camera.from_dict(truth[f.index]), bright_mask(f.gray, video_range=True), (f.width, f.height)))
+    return out
+
+
+def _shifted(cam: Camera, d) -> Camera:
+    """The camera moved by d (3,) metres in the pitch frame."""
+    return Camera(cam.K, cam.R, cam.t - cam.R @ np.asarray(d, float))
+
+
+def _turned(cam: Camera, dpan: float, dtilt: float) -> Camera:
+    """The camera panned and tilted by the given degrees about its own centre."""
+    pan, tilt, roll = ptr_from_rotation(cam.R)
+    R = rotation_from_ptr(pan + np.radians(dpan), tilt + np.radians(dtilt), roll)
+    return Camera(cam.K, R, -R @ cam.center)
+
+
+def test_true_camera_is_supported(sample_frames):
+    # over all 250 frames of the sample the exact camera scores 0.982-1.000 (median 0.997)
+    shares = [line_support(cam, m).share for cam, m, _ in sample_frames]
+    assert len(shares) == 9 and min(shares) >= 0.95
+
+
+@pytest.mark.parametrize(
+    "wrong",
+    [
+        lambda c: _shifted(c, (2.0, 2.0, 0.0)),  # 0.07-0.10 on the whole sample
+        lambda c: _turned(c, 2.0, 1.0),  # 0.26-0.39
+        lambda c: _turned(c, 2.0, 0.0),  # 0.13-0.37
+    ],
+    ids=["moved 2 m in X and Y", "pan 2 deg, tilt 1 deg", "pan 2 deg"],
+)
+def test_wrong_camera_is_not_supported(sample_frames, wrong):
+    # a move or turn along one axis only can keep the markings parallel to it on
+    # their paint (a tilt of 1 deg scores up to 0.61 on the sample): these move every marking
+    shares = [line_support(wrong(cam), m).share for cam, m, _ in sample_frames]
+    assert max(shares) < 0.5
+
+
+def test_support_undefined_when_markings_are_out_of_view(sample_frames):
+    cam, m, _ = sample_frames[0]
+    sky = _turned(cam, 0.0, -40.0)  # looking above the stadium
+    s = line_support(sky, m)
+    assert s.share is None and s.n_inside < MIN_POINTS
+    # a pitch of another size is another set of points
+    s100 = line_support(cam, m, marking_points(PitchModel(100.0, 64.0)))
+    assert s100.defined and s100.n_inside != line_support(cam, m).n_inside
+
+
+# --- jitter proxy ------------------------------------------------------------------
+SIZE = (1280, 720)
+CENTRE = np.array([-2.0, -60.0, 20.0])
+
+
+def _cam(pan=0.0, tilt=0.3, f=1500.0, cx=639.5, cy=359.5, centre=CENTRE) -> Camera:
+    R = rotation_from_ptr(pan, tilt, 0.0)
+    return Camera(intrinsic_matrix(f, cx, cy), R, -R @ np.asarray(centre, float))
+
+
+def test_jitter_of_a_still_camera_is_zero():
+    j = jitter_proxy([_cam(0.1)] * 6, SIZE)
+    assert j.rms == 0.0 and j.n_triples == 4 and j.second_differences.shape == (4, 2)
+
+
+def test_jitter_of_a_sliding_principal_point():
+    # the image moves by cx(i) = 3 + 0.8 i^2 / 2, cy(i) = -0.3 i^2 / 2: every point's
+    # second difference is (0.8, -0.3) px, whichever point is followed
+    cams = [_cam(cx=639.5 + 3 + 0.4 * i * i, cy=359.5 - 0.15 * i * i) for i in range(8)]
+    j = jitter_proxy(cams, SIZE)
+    assert j.n_triples == 6
+    np.testing.assert_allclose(j.second_differences, np.tile([0.8, -0.3], (6, 1)), atol=1e-9)
+    assert j.rms == pytest.approx(np.hypot(0.8, 0.3), abs=1e-9)
+    assert j.scaled(0.5, 2.0) == pytest.approx(np.hypot(0.4, 0.6), abs=1e-9)
+
+
+def test_jitter_of_a_camera_accelerating_sideways():
+    # a camera (no roll) moving along its own x axis with acceleration a (metres a
+    # frame^2): the ground point under the centre is at depth D = h / sin(tilt) in
+    # every frame, so its image moves with second difference f a / D along x only
+    tilt, f, a = 0.3, 1500.0, 0.02
+    R = rotation_from_ptr(0.2, tilt, 0.0)
+    axis = R[0]  # camera x in the world: horizontal
+    cams = [Camera(intrinsic_matrix(f, 639.5, 359.5), R, -R @ (CENTRE + 0.5 * a * i * i * axis)) for i in range(7)]
+    j = jitter_proxy(cams, SIZE)
+    D = CENTRE[2] / np.sin(tilt)
+    np.testing.assert_allclose(j.second_differences, np.tile([-f * a / D, 0.0], (5, 1)), atol=1e-9)
+    assert j.rms == pytest.approx(f * a / D, rel=1e-9)
+
+
+def test_jitter_skips_gaps_and_the_sky():
+    c = _cam()
+    assert jitter_proxy([c, None, c, c, None, c, c], SIZE).n_triples == 0
+    j = jitter_proxy([c, c, None, c, c, c], SIZE)
+    assert j.n_triples == 1 and j.rms == 0.0
+    sky = _cam(tilt=-0.2)  # the image centre sees no ground
+    j = jitter_proxy([sky] * 5, SIZE)
+    assert j.rms is None and j.n_triples == 0 and j.scaled(1, 1) is None
+    assert jitter_proxy([], SIZE).rms is None
+    with pytest.raises(ValueError, match=r"size must be positive \(width, height\), got \(0, 720\)"):
+        jitter_proxy([c] * 3, (0, 720))
+
