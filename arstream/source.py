@@ -350,3 +350,63 @@ def probe(path) -> dict:
             "duration": (dur / 1e6) if dur else n / src.fps,
             "audio": src.audio_stream is not None,
         }
+
+
+def image_frames(spec, *, fps: float = 25.0) -> tuple[list[str], Iterator[Frame]] | None:
+    """Frames of still images: one image, a folder of images, or a glob.
+
+    ``spec`` names a single image file (PNG, JPEG, ...: one frame, index 0), a
+    folder (every image file in it) or a glob pattern (``frames/frame_*.jpg``).
+    The files are taken in natural order (``frame_2`` before ``frame_10``);
+    a frame's index is its position and its time ``index / fps``.
+
+    Returns
+    -------
+    ``(paths, frames)``: the image files in order and an iterator of
+    :class:`Frame` (BGR images, read one at a time); None when ``spec`` is
+    none of these (a video file, a URL, a device), for :class:`VideoSource`.
+
+    Raises
+    ------
+    InputError
+        A missing image, a glob or folder without images; while iterating, a
+        file that does not read as an image or whose size differs from the first.
+    """
+    import glob
+    import re
+
+    from arstream.framein import IMAGE_EXT
+
+    spec = os.fspath(spec)
+    is_image = os.path.splitext(spec)[1].lower() in IMAGE_EXT
+    if _is_url(spec):
+        return None
+    if any(c in spec for c in "*?["):
+        paths = [p for p in glob.glob(spec) if os.path.isfile(p)]
+        if not paths:
+            raise InputError(f"no files match {spec}")
+    elif os.path.isdir(spec):
+        paths = [e.path for e in os.scandir(spec) if e.is_file() and os.path.splitext(e.name)[1].lower() in IMAGE_EXT]
+        if not paths:
+            raise InputError(f"no images ({', '.join(sorted(IMAGE_EXT))}) in the folder {spec}")
+    elif is_image:
+        if not os.path.exists(spec):
+            raise InputError(f"input not found: {spec}")
+        paths = [spec]
+    else:
+        return None
+    paths.sort(key=lambda p: [int(s) if s.isdigit() else s for s in re.split(r"(\d+)", p)])
+
+    def frames() -> Iterator[Frame]:
+        size = None
+        for i, p in enumerate(paths):
+            img = cv2.imread(p, cv2.IMREAD_COLOR)
+            if img is None:
+                raise InputError(f"cannot read {p} as an image")
+            if size is None:
+                size = img.shape[:2]
+            elif img.shape[:2] != size:
+                raise InputError(f"{p} is {img.shape[1]}x{img.shape[0]}, the first image {paths[0]} is {size[1]}x{size[0]}")
+            yield Frame(i, i / fps, img)
+
+    return paths, frames()
