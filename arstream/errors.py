@@ -20,3 +20,11 @@ class InputError(ArstreamError):
     """The input (file, URL, parameters) cannot be used."""
 
     exit_code = 2
+
+
+class SourceLost(ArstreamError):
+    """A live network source stopped delivering (stalled or dropped) and did not
+    come back within the reconnection window; raised by the source after the
+    last frame it read, so the outputs hold every frame up to the loss."""
+
+    exit_code = 1

@@ -16,6 +16,13 @@ bgr24). The pipeline composites and encodes in YUV and so never converts a
 whole frame back. Colour conversions use BT.601 limited range both ways,
 like FFmpeg's default for untagged video.
 
+Live network sources: :class:`ReconnectingSource` reads a URL with a read
+timeout (a stalled source does not block for ever), opens it again with a
+backoff when it stalls or drops, for a set time, and reports each event; its
+frames go on with consecutive indices and increasing timestamps across
+reconnections, and it raises :class:`~arstream.errors.SourceLost` when it
+gives up.
+
 Audio: :meth:`VideoSource.frames` can hand the first audio stream's packets,
 demuxed from the same container, to a callback so that a sink copies them
 through unchanged (see :class:`arstream.sink.VideoSink`).
@@ -23,7 +30,9 @@ through unchanged (see :class:`arstream.sink.VideoSink`).
 
 from __future__ import annotations
 
+import math
 import os
+import sys
 import threading
 import time
 from fractions import Fraction
@@ -33,9 +42,9 @@ import av
 import cv2
 import numpy as np
 
-from arstream.errors import InputError
+from arstream.errors import InputError, SourceLost
 
-__all__ = ["Frame", "VideoSource", "probe", "i420_planes"]
+__all__ = ["Frame", "VideoSource", "ReconnectingSource", "SourceLost", "probe", "i420_planes", "reconnect_wait", "DEFAULT_TIMEOUT", "DEFAULT_RECONNECT"]
 
 #: Consecutive undecodable packets after which the rest of the file is given up.
 MAX_BAD_PACKETS = 50
@@ -158,6 +167,18 @@ class VideoSource:
         Input format (e.g. ``"v4l2"`` for a capture device).
     open_timeout : float, optional
         Seconds to wait for a network source to open (URLs only).
+    read_timeout : float, optional
+        Seconds without data after which reading a network source stops
+        (URLs only; default None: wait for ever). The stop is recorded in
+        ``errors`` and ``read_error`` and the frames still in the decoder are
+        delivered; :class:`ReconnectingSource` uses it to notice a stalled source.
+
+    Attributes
+    ----------
+    read_error : str or None
+        Why reading stopped before the end of the stream, in a few words (a
+        read timeout: "no data for 10 s (timed out)", a dropped connection,
+        a damaged container), or None after a clean end. ``errors`` says it too.
 
     Raises
     ------
@@ -165,7 +186,7 @@ class VideoSource:
         Missing file, not a video, or no video stream.
     """
 
-    def __init__(self, path, *, threads: bool = True, options: dict | None = None, format: str | None = None, open_timeout: float | None = 10.0):
+    def __init__(self, path, *, threads: bool = True, options: dict | None = None, format: str | None = None, open_timeout: float | None = 10.0, read_timeout: float | None = None):
         self.path = os.fspath(path)
         is_url = _is_url(self.path)
         if not is_url and format is None and not os.path.exists(self.path):
@@ -173,12 +194,13 @@ class VideoSource:
         if not is_url and format is None and os.path.isdir(self.path):
             raise InputError(f"{self.path} is a folder, not a video file")
         kwargs = {}
-        if is_url and open_timeout:
-            kwargs["timeout"] = (open_timeout, None)
+        self.read_timeout = read_timeout if is_url and read_timeout else None
+        if is_url and (open_timeout or self.read_timeout):
+            kwargs["timeout"] = (open_timeout or None, self.read_timeout)
         try:
             self.container = av.open(self.path, mode="r", options=options or {}, format=format, **kwargs)
         except (av.error.FFmpegError, OSError, ValueError) as exc:
-            raise InputError(f"cannot open {self.path} as a video: {_reason(exc)}") from None
+            raise InputError(f"cannot open {self.path} as a video: {_reason(exc, open_timeout)}") from None
         if not self.container.streams.video:
             self.container.close()
             raise InputError(f"{self.path} has no video stream")
@@ -198,6 +220,8 @@ class VideoSource:
         self.frame_count = int(self.stream.frames or 0)  # 0 when the container does not say
         self.is_live = is_url or format is not None
         self.errors: list[str] = []
+        self.read_error: str | None = None
+        self._read_error_entry: str | None = None
         self.frames_decoded = 0
         self.packets_skipped = 0
         self._reading = False
@@ -268,7 +292,9 @@ class VideoSource:
             except StopIteration:
                 break
             except (av.error.FFmpegError, OSError, ValueError, EOFError) as exc:
-                self.errors.append(f"reading stopped after frame {index}: {_reason(exc)}")
+                self.read_error = _reason(exc, self.read_timeout)
+                self._read_error_entry = f"reading stopped after frame {index}: {self.read_error}"
+                self.errors.append(self._read_error_entry)
                 packet = None
             if packet is None:  # the container cannot be read further: drain the decoder
                 try:
@@ -309,8 +335,9 @@ class VideoSource:
             self.errors.append(f"decoded {index} of the {self.frame_count} frames the container lists; {self.frame_count - index} missing (truncated or corrupt file?)")
 
     def _frame(self, vf: av.VideoFrame, index: int, t0: float) -> Frame:
-        if vf.pts is not None and vf.time_base is not None:
-            t = float(vf.pts * vf.time_base)
+        tb = vf.time_base if vf.time_base is not None else self.time_base  # frames drained from the decoder have none
+        if vf.pts is not None and tb is not None:
+            t = float(vf.pts * tb)
             ts = int(vf.pts)
         else:
             t = index / self.fps
@@ -327,7 +354,233 @@ class VideoSource:
         return Frame(index, t, vf.to_ndarray(format="bgr24"), ts=ts, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
 
 
-def _reason(exc: BaseException) -> str:
+#: Seconds without data after which a network source counts as stalled, and the
+#: longest a (re)connection may take (``arstream stream --timeout``).
+DEFAULT_TIMEOUT = 10.0
+
+#: Seconds a lost network source is tried again before giving up (``arstream stream --reconnect``).
+DEFAULT_RECONNECT = 30.0
+
+#: First and longest wait (seconds) between reconnection attempts; each wait doubles the one before.
+RECONNECT_BACKOFF = (0.5, 8.0)
+
+
+def reconnect_wait(attempt: int, backoff: tuple[float, float] = RECONNECT_BACKOFF) -> float:
+    """Seconds to wait before reconnection attempt ``attempt`` (1-based): ``first * 2**(attempt - 1)``, at most ``longest``.
+
+    >>> [reconnect_wait(n) for n in range(1, 7)]
+    [0.5, 1.0, 2.0, 4.0, 8.0, 8.0]
+    """
+    first, longest = backoff
+    return min(first * 2.0 ** (attempt - 1), longest)
+
+
+class ReconnectingSource:
+    """A network source (URL) that survives stalls and drops.
+
+    Reads like a :class:`VideoSource` (same attributes; iterate or call
+    :meth:`frames`). Reading stops when no data comes for ``timeout`` seconds
+    or the connection fails (the frames still in the decoder are delivered
+    first); the URL is then opened again, after waits of 0.5, 1, 2, 4, 8, 8, ...
+    seconds (:func:`reconnect_wait`), until a connection delivers a frame or
+    ``reconnect`` seconds have passed since the loss. Frames go on as if
+    nothing happened: ``index`` counts on from the last frame, and ``pts`` /
+    ``ts`` go on one frame interval after the last frame (the outage leaves no
+    gap in the timeline, and a source whose clock restarted still moves
+    forward). A clean end of the stream (an HTTP body read to its end, an RTSP
+    stream the server ended) ends the iteration as a file's end does.
+
+    Each loss, failed attempt and reconnection is one line to ``report``:
+    what happened, the attempt number and the next wait. Giving up raises
+    :class:`~arstream.errors.SourceLost` after the last frame, so the outputs
+    of a pipeline hold every frame that was read.
+
+    Parameters
+    ----------
+    url : str, anything FFmpeg opens over a network (http://, rtsp://, udp://, srt://, ...)
+    reconnect : float, seconds to go on trying after a loss; 0: no
+        reconnection (a loss raises SourceLost at once)
+    timeout : float, seconds without data that count as a stall; also the
+        longest each (re)connection may take
+    options, format, threads : as :class:`VideoSource`
+    report : callable(str), optional, receives the event lines (default: stderr)
+
+    Raises
+    ------
+    InputError
+        The first connection fails (nothing is retried before the stream ran).
+    ValueError
+        ``reconnect`` not a finite number >= 0, or ``timeout`` not > 0.
+
+    The audio of a reconnecting source is not passed on (``audio_stream`` is
+    None): its timestamps would not follow the video's across a reconnection.
+    """
+
+    def __init__(self, url, *, reconnect: float = DEFAULT_RECONNECT, timeout: float = DEFAULT_TIMEOUT, options: dict | None = None, format: str | None = None, threads: bool = True, report: Callable[[str], None] | None = None):
+        if not (isinstance(reconnect, (int, float)) and math.isfinite(reconnect) and reconnect >= 0):
+            raise ValueError(f"reconnect must be 0 (off) or a number of seconds, got {reconnect!r}")
+        if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
+            raise ValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        self.path = os.fspath(url)
+        if not _is_url(self.path):
+            raise ValueError(f"a reconnecting source needs a URL (such as http://, rtsp://, udp://), got {self.path!r}")
+        self.reconnect = float(reconnect)
+        self.timeout = float(timeout)
+        self._open_args = dict(options=options, format=format, threads=threads)
+        self.report = report or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
+        self._src = self._connect(self.timeout)
+        first = self._src
+        self.width, self.height = first.width, first.height
+        self.rate, self.fps, self.time_base = first.rate, first.fps, first.time_base
+        self.frame_count = 0
+        self.is_live = True
+        self.errors: list[str] = []
+        self.frames_decoded = 0
+        #: successful reconnections so far
+        self.reconnections = 0
+        self._reading = False
+        self._reader = None
+
+    audio_stream = None
+
+    def _connect(self, open_timeout: float) -> VideoSource:
+        return VideoSource(self.path, open_timeout=open_timeout, read_timeout=self.timeout, **self._open_args)
+
+    def __enter__(self) -> "ReconnectingSource":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection (not while another thread is still reading; see :meth:`VideoSource.close`)."""
+        if self._reading and self._reader is not threading.current_thread():
+            return
+        self._src.close()
+
+    @property
+    def yuv_fast_path(self) -> bool:
+        """Frames come as I420 (even frame sizes)."""
+        return self.width % 2 == 0 and self.height % 2 == 0
+
+    def __iter__(self) -> Iterator[Frame]:
+        return self.frames()
+
+    def frames(self, on_audio: Callable | None = None, stop: Callable[[], bool] | None = None) -> Iterator[Frame]:
+        """Decode the stream across reconnections.
+
+        Parameters
+        ----------
+        on_audio : ignored (no audio from a reconnecting source)
+        stop : callable() -> bool, optional
+            Polled between packets and during the waits between attempts;
+            iteration ends when it returns True.
+
+        Yields
+        ------
+        Frame, ``index`` counting from 0 without a gap or a repeat across
+        reconnections, ``pts`` (and ``ts``, in units of ``time_base``) strictly increasing.
+
+        Raises
+        ------
+        SourceLost
+            After the last frame, when the source was lost and did not come back.
+        """
+        self._reading, self._reader = True, threading.current_thread()
+        try:
+            yield from self._frames(stop)
+        finally:
+            self._reading = False
+
+    def _frames(self, stop) -> Iterator[Frame]:
+        stopped = stop or (lambda: False)
+        tb0 = Fraction(self.time_base) if self.time_base else None
+        index = 0
+        last_t: Fraction | None = None  # output time (seconds) of the last frame delivered
+        outage = None  # (monotonic time of the loss, attempts made) while the source is lost
+        src = self._src
+        while True:
+            tb = Fraction(src.time_base) if src.time_base else None
+            shift = None
+            for f in src.frames(stop=stop):
+                t = Fraction(f.ts) * tb if f.ts is not None and tb is not None else Fraction(f.pts)
+                if shift is None:  # the first frame of this connection follows the last one delivered
+                    shift = Fraction(0) if last_t is None else last_t + 1 / self.rate - t
+                    outage = None
+                t += shift
+                f.index, f.pts = index, float(t)
+                f.ts = round(t / tb0) if f.ts is not None and tb0 is not None else None
+                last_t = t
+                index += 1
+                self.frames_decoded = index
+                yield f
+            self.errors.extend(e for e in src.errors if e is not src._read_error_entry)
+            if stopped() or src.read_error is None:  # stopped, or the stream ended cleanly
+                return
+            src.close()
+            src, outage = self._reconnect(src.read_error, index, outage, stopped)
+            if src is None:
+                return
+            self._src = src
+
+    def _reconnect(self, why: str, index: int, outage, stopped) -> tuple[VideoSource | None, tuple]:
+        """Open the URL again: (source, outage), (None, outage) when stopped while
+        waiting; SourceLost when the window is over."""
+        where = f"after frame {index - 1}" if index else "before any frame"
+        if outage is None:
+            if self.reconnect <= 0:
+                raise SourceLost(f"lost the source {self.path}: {why} {where}; reconnection is off")
+            outage = (time.monotonic(), 0)
+            wait = min(reconnect_wait(1), self.reconnect)
+            self.report(f"lost the source {self.path}: {why} {where}; reconnecting for up to {self.reconnect:g} s, attempt 1 in {wait:g} s")
+        else:  # a connection that came back dropped again before a frame
+            t0, attempts = outage
+            left = self.reconnect - (time.monotonic() - t0)
+            if left <= 0:
+                raise SourceLost(f"lost the source {self.path}: {why} {where}; gave up after {attempts} reconnection attempts in {time.monotonic() - t0:.1f} s")
+            wait = min(reconnect_wait(attempts + 1), left)
+            self.report(f"the source {self.path} dropped again before a frame ({why}); attempt {attempts + 1} in {wait:g} s ({left:.1f} s left)")
+        t0, attempts = outage
+        while True:
+            if _sleep(wait, stopped):
+                return None, outage
+            attempts += 1
+            outage = (t0, attempts)
+            left = self.reconnect - (time.monotonic() - t0)
+            try:
+                src = self._connect(max(min(self.timeout, left), 0.1))
+            except InputError as exc:
+                reason = str(exc)
+            else:
+                self.reconnections += 1
+                if (src.width, src.height) != (self.width, self.height):
+                    self.report(f"the source {self.path} came back at {src.width}x{src.height}; its frames are scaled to {self.width}x{self.height}")
+                    src.width, src.height = self.width, self.height  # VideoSource._frame scales to its width and height
+                self.report(f"reconnected to {self.path} on attempt {attempts}, {time.monotonic() - t0:.1f} s after the loss; frames go on from {index}")
+                return src, outage
+            elapsed = time.monotonic() - t0
+            left = self.reconnect - elapsed
+            if left <= 0:
+                raise SourceLost(f"lost the source {self.path}: {why} {where}; gave up after {attempts} reconnection attempts in {elapsed:.1f} s (last: {reason})")
+            wait = min(reconnect_wait(attempts + 1), left)
+            self.report(f"reconnection attempt {attempts} to {self.path} failed ({reason}); attempt {attempts + 1} in {wait:.1f} s ({left:.1f} s left)")
+
+
+def _sleep(seconds: float, stopped: Callable[[], bool]) -> bool:
+    """Wait ``seconds``, polling ``stopped`` every 50 ms; True when it said stop."""
+    end = time.monotonic() + seconds
+    while (left := end - time.monotonic()) > 0:
+        if stopped():
+            return True
+        time.sleep(min(left, 0.05))
+    return stopped()
+
+
+def _reason(exc: BaseException, timeout: float | None = None) -> str:
+    """One line saying why an FFmpeg call failed; ``timeout``: the seconds after
+    which PyAV interrupted it (FFmpeg's "Immediate exit requested")."""
+    if isinstance(exc, av.error.ExitError) and timeout:
+        return f"no data for {timeout:g} s (timed out)"
     msg = getattr(exc, "strerror", None) or str(exc).strip() or type(exc).__name__
     return str(msg).splitlines()[0]
 
