@@ -383,7 +383,9 @@ class ReconnectingSource:
     or the connection fails (the frames still in the decoder are delivered
     first); the URL is then opened again, after waits of 0.5, 1, 2, 4, 8, 8, ...
     seconds (:func:`reconnect_wait`), until a connection delivers a frame or
-    ``reconnect`` seconds have passed since the loss. Frames go on as if
+    ``reconnect`` seconds have passed since the loss (the last attempt is made
+    at the end of that window; each attempt may take up to ``timeout``, so the
+    source gives up at most ``reconnect + timeout`` seconds after the loss). Frames go on as if
     nothing happened: ``index`` counts on from the last frame, and ``pts`` /
     ``ts`` go on one frame interval after the last frame (the outage leaves no
     gap in the timeline, and a source whose clock restarted still moves
@@ -428,7 +430,7 @@ class ReconnectingSource:
         self.timeout = float(timeout)
         self._open_args = dict(options=options, format=format, threads=threads)
         self.report = report or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
-        self._src = self._connect(self.timeout)
+        self._src = self._connect()
         first = self._src
         self.width, self.height = first.width, first.height
         self.rate, self.fps, self.time_base = first.rate, first.fps, first.time_base
@@ -443,8 +445,8 @@ class ReconnectingSource:
 
     audio_stream = None
 
-    def _connect(self, open_timeout: float) -> VideoSource:
-        return VideoSource(self.path, open_timeout=open_timeout, read_timeout=self.timeout, **self._open_args)
+    def _connect(self) -> VideoSource:
+        return VideoSource(self.path, open_timeout=self.timeout, read_timeout=self.timeout, **self._open_args)
 
     def __enter__(self) -> "ReconnectingSource":
         return self
@@ -532,23 +534,22 @@ class ReconnectingSource:
                 raise SourceLost(f"lost the source {self.path}: {why} {where}; reconnection is off")
             outage = (time.monotonic(), 0)
             wait = min(reconnect_wait(1), self.reconnect)
-            self.report(f"lost the source {self.path}: {why} {where}; reconnecting for up to {self.reconnect:g} s, attempt 1 in {wait:g} s")
+            self.report(f"lost the source {self.path}: {why} {where}; reconnecting for up to {self.reconnect:g} s, attempt 1 in {wait:.1f} s")
         else:  # a connection that came back dropped again before a frame
             t0, attempts = outage
             left = self.reconnect - (time.monotonic() - t0)
             if left <= 0:
                 raise SourceLost(f"lost the source {self.path}: {why} {where}; gave up after {attempts} reconnection attempts in {time.monotonic() - t0:.1f} s")
             wait = min(reconnect_wait(attempts + 1), left)
-            self.report(f"the source {self.path} dropped again before a frame ({why}); attempt {attempts + 1} in {wait:g} s ({left:.1f} s left)")
+            self.report(f"the source {self.path} dropped again before a frame ({why}); attempt {attempts + 1} in {wait:.1f} s ({left:.1f} s left)")
         t0, attempts = outage
         while True:
             if _sleep(wait, stopped):
                 return None, outage
             attempts += 1
             outage = (t0, attempts)
-            left = self.reconnect - (time.monotonic() - t0)
             try:
-                src = self._connect(max(min(self.timeout, left), 0.1))
+                src = self._connect()
             except InputError as exc:
                 reason = str(exc)
             else:

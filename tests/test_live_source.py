@@ -296,3 +296,42 @@ def test_bad_reconnect_arguments(kwargs, message):
 def test_a_reconnecting_source_needs_a_url(tmp_path):
     with pytest.raises(ValueError, match="a reconnecting source needs a URL"):
         ReconnectingSource(str(tmp_path / "clip.mp4"))
+
+
+def _udp_bound(port: int) -> bool:
+    """Whether a UDP socket is bound to ``port`` on this machine (Linux's /proc/net/udp)."""
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        if os.path.exists(table):
+            for line in open(table).read().splitlines()[1:]:
+                if int(line.split()[1].rsplit(":", 1)[1], 16) == port:
+                    return True
+    return False
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/net/udp"), reason="needs /proc/net/udp to see when the receiver is listening")
+def test_a_udp_source_that_stops_sending_times_out(ts_clip):
+    """MPEG-TS over UDP (no connection to drop: a sender that goes quiet is a
+    stall). Without reconnection the source ends with SourceLost after the timeout."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    data = ts_clip["data"]
+
+    def send():
+        deadline = time.monotonic() + 10
+        while not _udp_bound(port) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out:
+            for i in range(0, len(data), 7 * 188):
+                out.sendto(data[i : i + 7 * 188], ("127.0.0.1", port))
+                time.sleep(0.001)
+
+    threading.Thread(target=send, daemon=True).start()
+    log: list = []
+    t0 = time.monotonic()
+    frames, lost, src = read_all(f"udp://127.0.0.1:{port}", reconnect=0, timeout=2, log=log)
+    assert lost is not None and "no data for 2 s (timed out)" in str(lost[0])
+    assert lost[1] - t0 < 10
+    assert len(frames) > FRAMES // 2 and [f.index for f in frames] == list(range(len(frames)))
