@@ -44,7 +44,7 @@ import numpy as np
 
 from arstream.errors import InputError, SourceLost
 
-__all__ = ["Frame", "VideoSource", "ReconnectingSource", "SourceLost", "probe", "i420_planes", "reconnect_wait", "DEFAULT_TIMEOUT", "DEFAULT_RECONNECT"]
+__all__ = ["Frame", "VideoSource", "ReconnectingSource", "SourceLost", "open_live", "probe", "i420_planes", "reconnect_wait", "DEFAULT_TIMEOUT", "DEFAULT_RECONNECT"]
 
 #: Consecutive undecodable packets after which the rest of the file is given up.
 MAX_BAD_PACKETS = 50
@@ -565,6 +565,17 @@ class ReconnectingSource:
                 raise SourceLost(f"lost the source {self.path}: {why} {where}; gave up after {attempts} reconnection attempts in {elapsed:.1f} s (last: {reason})")
             wait = min(reconnect_wait(attempts + 1), left)
             self.report(f"reconnection attempt {attempts} to {self.path} failed ({reason}); attempt {attempts + 1} in {wait:.1f} s ({left:.1f} s left)")
+
+
+def open_live(path, *, format: str | None = None, options: dict | None = None, reconnect: float = DEFAULT_RECONNECT, timeout: float = DEFAULT_TIMEOUT, report: Callable[[str], None] | None = None) -> "VideoSource | ReconnectingSource":
+    """The source of live mode: a :class:`ReconnectingSource` for a URL, else
+    (a file, or a device with ``format``) a :class:`VideoSource`.
+
+    ``reconnect``, ``timeout`` and ``report`` apply to URLs only (see :class:`ReconnectingSource`).
+    """
+    if _is_url(os.fspath(path)):
+        return ReconnectingSource(path, reconnect=reconnect, timeout=timeout, options=options, format=format, report=report)
+    return VideoSource(path, options=options, format=format)
 
 
 def _sleep(seconds: float, stopped: Callable[[], bool]) -> bool:
