@@ -634,7 +634,7 @@ class BatchSummary:
     ----------
     out_dir : str
     engine : "local" or "ray"
-    workers : int, clips processed at once
+    workers : int, clips processed at once (0: no clip needed processing)
     clips : list of dict, one record per clip in input order (as ``summary.jsonl``)
     seconds : float, wall time of the batch
     interrupted : int or None, the signal that stopped it
@@ -681,7 +681,10 @@ class BatchSummary:
         s = f"{len(self.clips)} clips: " + ", ".join(parts)
         if self.skipped:
             s += f" ({self.skipped} skipped, complete from an earlier run)"
-        s += f"; {self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps, {self.workers} {self.engine} worker{'' if self.workers == 1 else 's'})"
+        if self.workers:
+            s += f"; {self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps, {self.workers} {self.engine} worker{'' if self.workers == 1 else 's'})"
+        else:  # every clip skipped or refused before it started: no engine ran
+            s += f"; nothing processed ({self.seconds:.1f} s)"
         if self.summary_path:
             s += f" -> {self.summary_path}"
         return s

@@ -11,6 +11,7 @@ file with the final name is never half-written.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -38,6 +39,17 @@ def _prepare_dir(path: str) -> None:
         os.makedirs(d, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder {d}: {exc.strerror}") from None
+
+
+def _open_tmp(path: str, tmp: str, mode: str):
+    """Open ``tmp`` (the temporary name of the output ``path``) for writing; an
+    ``InputError`` naming ``path`` when the file system refuses (e.g. under
+    /proc, a read-only folder), instead of an errno naming nothing or the
+    temporary name."""
+    try:
+        return open(tmp, mode, **({} if "b" in mode else {"encoding": "utf-8"}))
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def _reason(exc: BaseException) -> str:
@@ -102,9 +114,13 @@ class VideoSink:
         _prepare_dir(self.path)
         self.tmp = atomic_path(self.path)
         self.rate = Fraction(rate).limit_denominator(100000)
+        fmt = _format_for(self.path)
+        _open_tmp(self.path, self.tmp, "wb").close()  # FFmpeg opens the file only at the first packet
         try:
-            self.container = av.open(self.tmp, mode="w", format=_format_for(self.path))
+            self.container = av.open(self.tmp, mode="w", format=fmt)
         except (av.error.FFmpegError, OSError, ValueError) as exc:
+            with contextlib.suppress(OSError):
+                os.remove(self.tmp)
             raise InputError(f"cannot write {self.path}: {_reason(exc)}") from None
         self.stream = self.container.add_stream("libx264", rate=self.rate)
         self.stream.width = width + (width % 2)
@@ -238,7 +254,7 @@ class JsonlWriter:
         self.path = os.fspath(path)
         _prepare_dir(self.path)
         self.tmp = atomic_path(self.path)
-        self.f = open(self.tmp, "w", encoding="utf-8")
+        self.f = _open_tmp(self.path, self.tmp, "w")
         self.count = 0
 
     def __enter__(self) -> "JsonlWriter":

@@ -1,10 +1,11 @@
 """What the clip commands (process, render, stream, batch) share: the encoder
-and analysis-width options, running under a progress bar, and reporting the
-summary."""
+and analysis-width options, checking the options they share, running under a
+progress bar, and reporting the summary."""
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 from typing import Callable
 
@@ -33,16 +34,63 @@ def analysis_width(args) -> int | None:
     return DEFAULT_ANALYSIS_WIDTH if w is None else (w or None)
 
 
+def check_frames(frames: int | None) -> None:
+    """``--frames``: None (the whole input) or 1 or more; InputError naming the option."""
+    from arstream.errors import InputError
+
+    if frames is not None and frames < 1:
+        raise InputError(f"--frames must be 1 or more, got {frames}")
+
+
+def warn(message: str) -> None:
+    """A non-fatal problem, one line on stderr (``arstream: warning: ...``)."""
+    print(f"arstream: warning: {message}", file=sys.stderr)
+
+
+def load_scene(path):
+    """The scene file ``--scene`` names, loaded (ValueError naming the file when
+    it is bad), with a warning when it has no objects (an empty file, or tables
+    of settings only): the output would carry no graphics. None: no ``--scene``
+    (the library draws its demo scene)."""
+    if path is None:
+        return None
+    from render.scene import load_scene as load
+
+    scene = load(path)
+    if not scene.objects:
+        warn(f"the scene {path} has no objects: nothing will be drawn (see docs/render.md for the format)")
+    return scene
+
+
+def check_clip_args(args) -> None:
+    """Check the options the clip commands share, before any work: ``--frames``
+    (1 or more), ``-o`` and ``--cameras-out`` (not the same file), and
+    ``--scene`` (loaded once here, so a bad file is exit 2 before decoding and
+    an empty one is a warning; ``args.scene`` becomes the loaded scene, which
+    the library functions take as well as a path). Options a command does not
+    have are skipped."""
+    from arstream.errors import InputError
+
+    check_frames(getattr(args, "frames", None))
+    output, cameras = getattr(args, "output", None), getattr(args, "cameras_out", None)
+    if output is not None and cameras is not None and os.path.abspath(output) == os.path.abspath(cameras):
+        raise InputError(f"-o and --cameras-out are the same file ({output}): give the cameras a file of their own, e.g. cameras.jsonl")
+    if isinstance(getattr(args, "scene", None), (str, os.PathLike)):
+        args.scene = load_scene(args.scene)
+
+
 def run_clip(call: Callable, args, *, label: str, verb: str, finalised: str, missing: Callable[[str], str]) -> int:
-    """Run ``call(progress)`` (a library function over one clip) under a progress
-    bar (silent with ``--quiet`` or off a terminal), print its summary and
-    return the exit code; on Ctrl-C, report what was done and say ``finalised``.
+    """Check the shared options (:func:`check_clip_args`), run ``call(progress)``
+    (a library function over one clip) under a progress bar (silent with
+    ``--quiet`` or off a terminal), print its summary and return the exit code;
+    on Ctrl-C, report what was done and say ``finalised``.
 
     ``verb``: what was done to the frames (for the damaged-input error);
     ``missing(stage)``: what a stage missing from this build means."""
     from arstream.pipeline import Interrupted
     from arstream.progress import Progress
 
+    check_clip_args(args)
     bar = Progress(None, label=label, stream=sys.stderr)
     if args.quiet:
         bar.enabled = False
@@ -61,10 +109,10 @@ def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
     missing stages and input damage; the exit code (1 for a damaged input)."""
     print(json.dumps(summary.to_dict(), indent=2) if args.json else summary.line())
     for stage in summary.missing:
-        print(f"arstream: warning: no {stage} stage in this build{missing(stage)}", file=sys.stderr)
+        warn(f"no {stage} stage in this build{missing(stage)}")
     if summary.errors:
         for e in summary.errors:
-            print(f"arstream: warning: {e}", file=sys.stderr)
+            warn(e)
         print(f"arstream: error: the input is damaged; {summary.frames} frames were {verb} and written", file=sys.stderr)
         return 1
     return 0

@@ -110,10 +110,26 @@ def _clip_line(rec: dict) -> str:
     return s
 
 
+def check_args(args) -> None:
+    """The options the library would refuse under its own parameter names
+    (``max_frames``, ``workers``, ``lag``), refused under the options' names;
+    a warning for a scene file with no objects."""
+    from arstream.commands._clip import check_frames, load_scene
+    from arstream.errors import InputError
+
+    check_frames(args.frames)
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be 1 or more, got {args.workers}")
+    if args.lag < 0:
+        raise InputError(f"--lag must be 0 or more, got {args.lag}")
+    load_scene(args.scene)  # the workers load it from the path; here for the warning (and exit 2 for a bad file)
+
+
 def run(args) -> int:
     from arstream.batch import BatchInterrupted
     from arstream.batch import run as run_batch
 
+    check_args(args)
     bar = _Bar(sys.stderr, not args.quiet)
 
     def on_clip(rec: dict) -> None:

@@ -14,7 +14,7 @@ def register(subparsers) -> None:
         description=(
             "Run the pitch detector on one frame: an image, or frame N of a video. Prints the "
             "straight lines (homogeneous, a^2+b^2=1, with their uncertainty) and the circle "
-            "ellipses (conic matrices, DESIGN.md conventions); --draw writes the detections "
+            "ellipses (conic matrices with unit Frobenius norm, docs/formats.md); --draw writes the detections "
             "over the frame (line points red, lines blue, the centre-circle candidate yellow, "
             "penalty arcs orange, outside the pitch dimmed)."
         ),

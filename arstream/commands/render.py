@@ -13,7 +13,7 @@ DESCRIPTION = """\
 Draw a scene's graphics on a clip, with the camera of every frame read from a
 cameras.jsonl file: the output of `arstream process --cameras-out`, or a
 user's own tracking system (one JSON object per frame with "frame", "K",
-"R", "t" and optionally "dist", DESIGN.md section 5; frames whose record is
+"R", "t" and optionally "dist", docs/formats.md; frames whose record is
 missing or "lost" are copied unchanged). Nothing is solved: rendering is
 usable on its own.
 
@@ -57,12 +57,22 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def has_records(path: str) -> bool:
+    """Whether the JSON-lines file ``path`` has a record: a line that is not
+    blank (read up to the first one only; a missing file is the library's error)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return any(line.strip() for line in f)
+    except OSError:
+        return True
+
+
 def run(args) -> int:
-    import render
-    from arstream.commands._clip import run_clip
+    from arstream.commands._clip import run_clip, warn
     from arstream.pipeline import render_clip
 
-    scene = render.load_scene(args.scene) if args.scene else render.default_scene()  # bad scene: exit 2 before decoding
+    if not has_records(args.cameras):
+        warn(f"the cameras file {args.cameras} is empty: no frame has a camera, so the output is the input without graphics")
     if args.key == "auto":
         key = "detector" if importlib.util.find_spec("arstream.detect") is not None else "green"
     else:
@@ -72,7 +82,7 @@ def run(args) -> int:
             args.input,
             args.cameras,
             args.output,
-            scene=scene,
+            scene=args.scene,  # loaded by run_clip: a bad scene is exit 2 before decoding
             key=key,
             crf=args.crf,
             preset=args.preset,
