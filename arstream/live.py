@@ -172,7 +172,7 @@ class RerunLogger:
     jpeg_quality : int, 1..100
     warn : callable(str), non-fatal problems
     name : str, shown as the recording's name
-    analysis : arstream.pipeline.Analysis, optional: detections are at its size
+    analysis : arstream.pipeline.stages.Analysis, optional: detections are at its size
         and are drawn mapped to frame pixels
 
     Two pipeline stages: ``input_stage`` (before rendering: input frame,

@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 import scipy.optimize
 
-from arstream.kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
+from arstream.solve_kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
 from geometry.camera import Camera, decompose_homographies, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conics
 from geometry.homography import homographies_from_lines
@@ -348,8 +348,8 @@ class LineIndex:
     """Nearest detected line pixel lookup.
 
     The points are bucketed in a grid of ``cell``-pixel squares over their
-    bounding box (:func:`arstream.kernels.point_grid`); a query searches the
-    cells within its radius (:func:`arstream.kernels.grid_nearest`): exact
+    bounding box (:func:`arstream.solve_kernels.point_grid`); a query searches the
+    cells within its radius (:func:`arstream.solve_kernels.grid_nearest`): exact
     nearest neighbours, at a fraction of a k-d tree's build cost for the few
     thousand points and queries of a frame.
 
@@ -386,7 +386,7 @@ class LineIndex:
 # ---------------------------------------------------------------------------
 @dataclass
 class LMResult:
-    """Solution of :func:`arstream.kernels.refine_pose`: parameters, residuals and
+    """Solution of :func:`arstream.solve_kernels.refine_pose`: parameters, residuals and
     Jacobian at the solution, its cost and the steps taken."""
 
     x: np.ndarray

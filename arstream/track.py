@@ -260,7 +260,7 @@ def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, point
     A pan by ``d`` right-multiplies the rotation by ``Rz(d)``
     (:func:`geometry.camera.rotation_from_ptr`), so the camera-frame points are
     ``R Rz(d) (X - C)``; the lens is the refinement's (one radial term, as
-    :func:`arstream.kernels.marking_residuals`)."""
+    :func:`arstream.solve_kernels.marking_residuals`)."""
     d = np.asarray(offsets_px, dtype=np.float64) / cam.focal
     c, s = np.cos(d)[:, None], np.sin(d)[:, None]
     Y = points - centre
@@ -278,7 +278,7 @@ def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, point
     # lens bends far less than a tenth of the frame)
     near = (X2 > 0.5) & (f * xn > -0.1 * W - cx) & (f * xn < 1.1 * W - cx) & (f * yn > -0.1 * H - cy) & (f * yn < 1.1 * H - cy)
     xs, ys = xn[near], yn[near]
-    if cam.dist:  # the refinement's lens model (kernels.marking_residuals): one radial term
+    if cam.dist:  # the refinement's lens model (solve_kernels.marking_residuals): one radial term
         g = 1.0 + cam.dist[0] * (xs * xs + ys * ys)
         xs, ys = xs * g, ys * g
     px = np.full(near.shape + (2,), np.nan)

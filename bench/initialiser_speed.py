@@ -32,7 +32,8 @@ sys.path.insert(0, str(ROOT))
 import arstream.track as track  # noqa: E402
 from arstream.detect import Detector  # noqa: E402
 from arstream.kernels import warm_up  # noqa: E402
-from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Analysis, Item  # noqa: E402
+from arstream.pipeline.stage import Item  # noqa: E402
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis  # noqa: E402
 from arstream.source import VideoSource  # noqa: E402
 from arstream.synth import generate  # noqa: E402
 

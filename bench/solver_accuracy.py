@@ -37,7 +37,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from arstream.estimate import CameraEstimate  # noqa: E402
 from arstream.evaluate import score  # noqa: E402
-from arstream.pipeline import DEFAULT_ANALYSIS_WIDTH, Analysis, Item  # noqa: E402
+from arstream.pipeline.stage import Item  # noqa: E402
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis  # noqa: E402
 from arstream.sink import read_jsonl  # noqa: E402
 from arstream.source import VideoSource  # noqa: E402
 from arstream.synth import PRESETS, generate  # noqa: E402

@@ -275,7 +275,7 @@ def ellipse_params_sym(p: float, q: float, r: float, d: float, e: float, f: floa
     """Centre, semi-axes and major-axis direction of the normalised conic
     ``[[p, q, d], [q, r, e], [d, e, f]]`` (:func:`normalize_conic`), on plain
     floats (:func:`ellipse_from_conic`'s arithmetic; the detector's compiled
-    ellipse validation runs the same function, :mod:`arstream.kernels`).
+    ellipse validation runs the same function, :mod:`arstream.detect.kernels.ellipses`).
 
     Returns
     -------

@@ -1,10 +1,17 @@
-"""Composite a premultiplied BGRA overlay onto a BGR frame, in place.
+"""Composite a premultiplied BGRA overlay onto a BGR or an I420 frame, in place.
+
+BGR (:class:`Compositor`):
 
 ``out = overlay_bgr + frame * (255 - alpha) / 255`` (premultiplied "over"),
 8-bit, rounded to nearest, only inside the overlay's rectangles (see
 :class:`render.renderer.Overlay`): the cost follows the drawn area, never the
 whole frame. No float conversion of the frame; scratch buffers are
 preallocated; all the arithmetic is OpenCV's SIMD kernels.
+
+I420 (:func:`composite_i420`): the same "over" straight into the Y, U and V
+planes of a decoded frame, inside the same rectangles, so that frames of even
+size go from decoder to encoder without a BGR round trip (one compiled pass,
+:func:`render.kernels.composite_i420`).
 """
 
 from __future__ import annotations
@@ -12,7 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["Compositor", "composite_over"]
+__all__ = ["Compositor", "composite_i420", "composite_over", "rect_array"]
 
 
 class Compositor:
@@ -88,3 +95,48 @@ def composite_over(frame: np.ndarray, overlay_bgra: np.ndarray) -> np.ndarray:
     a = overlay_bgra[..., 3:4].astype(np.float64) / 255.0
     out = overlay_bgra[..., :3].astype(np.float64) + frame.astype(np.float64) * (1.0 - a)
     return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
+# BT.601 limited range (FFmpeg's default for untagged video, and OpenCV's I420
+# conversions): Y, U, V from B, G, R, with the offsets scaled by alpha, so that
+# premultiplied colour maps to premultiplied YUV (all of it within 0..255).
+_BGRA_TO_YUV = np.array([[24.966, 128.553, 65.481, 16.0], [112.0, -74.203, -37.797, 128.0], [-18.214, -93.786, 112.0, 128.0]]) / 255.0
+
+
+def composite_i420(yuv: np.ndarray, width: int, height: int, bgra: np.ndarray, rects) -> None:
+    """Premultiplied "over" of a BGRA overlay onto an I420 frame, in place.
+
+    Only the rectangles are touched (aligned outward to even pixels). Inside
+    them the overlay is converted to premultiplied YUV (BT.601 limited range);
+    chroma uses the 2 x 2 mean of premultiplied colour and of alpha, which is
+    what "over" followed by 4:2:0 subsampling gives. One compiled pass
+    (:func:`render.kernels.composite_i420`), one rounding per sample.
+
+    Parameters
+    ----------
+    yuv : (H * 3 / 2, W) uint8 I420 buffer, contiguous, modified in place
+    width, height : int, even frame size
+    bgra : (H, W, 4) uint8, premultiplied B, G, R, A (zero outside ``rects``)
+    rects : iterable of (x0, y0, x1, y1), half-open pixel rectangles
+    """
+    from render.kernels import composite_i420 as blend  # (numba: loaded on first use, or by render.kernels.warm_up)
+
+    r = rect_array(rects, width, height, even=True)
+    if len(r):
+        blend(yuv.reshape(-1), int(width), int(height), np.ascontiguousarray(bgra), r, *_BGRA_TO_YUV)
+
+
+def rect_array(rects, width: int, height: int, *, even: bool = False) -> np.ndarray:
+    """Rectangles (x0, y0, x1, y1) as an (R, 4) int64 array for the compiled I420
+    passes: clipped to the frame (``even``: first grown outward to even pixels,
+    as 4:2:0 chroma needs), the empty ones dropped."""
+    out = []
+    for rc in rects:  # (a handful of rectangles: plain ints beat numpy's per-call cost)
+        x0, y0, x1, y1 = (int(v) for v in rc)
+        if even:
+            x0, y0, x1, y1 = x0 & ~1, y0 & ~1, (x1 + 1) & ~1, (y1 + 1) & ~1
+        x0, x1 = min(max(x0, 0), width), min(max(x1, 0), width)
+        y0, y1 = min(max(y0, 0), height), min(max(y1, 0), height)
+        if x1 > x0 and y1 > y0:
+            out.append((x0, y0, x1, y1))
+    return np.array(out, np.int64).reshape(-1, 4)

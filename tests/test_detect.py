@@ -538,10 +538,9 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # the signatures detection, tracking, keying and the renderer's footprint
     # call, so that nothing compiles mid-clip
     from arstream import kernels
-    from render import kernels as render_kernels
 
     kernels.warm_up()
-    names = [(m, n) for m in (kernels, render_kernels) for n in m.__all__ if not n.startswith("warm_up")]
+    names = [(m, n) for m in kernels.MODULES for n in m.__all__ if not n.startswith("warm_up")]
     before = {n: len(getattr(m, n).signatures) for m, n in names}
     assert all(v >= 1 for v in before.values()), before
     clip = SynthClip("penalty", seed=3, frames=30, size=(640, 360))
@@ -559,7 +558,7 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # the tracker's refinements (tripod, with the pan held, full pose) and the fine key
     import cv2
 
-    from arstream.pipeline import GrassKeyI420
+    from render.keying import GrassKeyI420
     from arstream.solve import ModelSamples, refine_camera
 
     cam, model, index = clip.camera(160), ModelSamples.from_pitch(), LineIndex(d.line_points)
@@ -580,17 +579,17 @@ def test_the_kernels_warm_up_with_the_signatures_detection_uses():
 
 @pytest.mark.parametrize("reach", [1, 3])
 def test_chains_are_the_connected_components_of_the_dilated_cells(reach):
-    # kernels.chains links points whose cells are within `reach` along both axes:
+    # points.chains links points whose cells are within `reach` along both axes:
     # reach 1 is the 8-connectivity of the occupied cells, reach 3 that of the
     # cells dilated by a 3x3 square (what the detector's chain tests used before)
-    from arstream import kernels
+    from arstream.detect.kernels import points
 
     rng = np.random.default_rng(reach)
     h, w = 60, 90
     xi = rng.integers(0, w, 400)
     yi = rng.integers(0, h, 400)
     grid = np.full((h, w), -1, np.int32)
-    labels, ext_x, ext_y = kernels.chains(xi, yi, reach, grid)
+    labels, ext_x, ext_y = points.chains(xi, yi, reach, grid)
     assert (grid == -1).all()  # the scratch is left as it came
     img = np.zeros((h, w), np.uint8)
     img[yi, xi] = 255
@@ -608,7 +607,7 @@ def test_chains_are_the_connected_components_of_the_dilated_cells(reach):
 
 
 def test_grid_clear_is_the_dilated_occupancy_test():
-    from arstream import kernels
+    from arstream.detect.kernels import points
 
     rng = np.random.default_rng(5)
     h, w = 40, 70
@@ -616,7 +615,7 @@ def test_grid_clear_is_the_dilated_occupancy_test():
     ep = rng.uniform(-2, [w + 2, h + 2], (300, 2))
     grid = np.zeros((h, w), np.uint8)
     for rint, rx, ry in [(True, 2, 0), (False, 2, 2)]:
-        keep = kernels.grid_clear(pts, ep, 1.0, 1.0, rint, rx, ry, grid)
+        keep = points.grid_clear(pts, ep, 1.0, 1.0, rint, rx, ry, grid)
         assert not grid.any()
         cell = (lambda p: np.rint(p).astype(int)) if rint else (lambda p: p.astype(int))
         occ = np.zeros((h, w), np.uint8)
@@ -628,10 +627,10 @@ def test_grid_clear_is_the_dilated_occupancy_test():
 
 
 def test_compiled_direct_fit_matches_the_geometry_core():
-    # kernels.direct_fit (one scatter matrix, compiled) against
+    # ellipses.direct_fit (one scatter matrix, compiled) against
     # geometry.conics.direct_fit_scatter on arcs of known ellipses, and the
     # degenerate scatters it must refuse
-    from arstream import kernels
+    from arstream.detect.kernels import ellipses
     from geometry.conics import direct_fit_scatter
 
     rng = np.random.default_rng(7)
@@ -643,7 +642,7 @@ def test_compiled_direct_fit_matches_the_geometry_core():
         X += rng.normal(0, 0.01, X.shape)
         D = np.column_stack([X[:, 0] ** 2, X[:, 0] * X[:, 1], X[:, 1] ** 2, X[:, 0], X[:, 1], np.ones(len(X))])
         S = D.T @ D
-        coef, ok = kernels.direct_fit(S)
+        coef, ok = ellipses.direct_fit(S)
         ref, ok_ref = direct_fit_scatter(S[None])
         assert ok and ok_ref[0]
         u, v = coef / np.linalg.norm(coef), ref[0] / np.linalg.norm(ref[0])
@@ -652,17 +651,17 @@ def test_compiled_direct_fit_matches_the_geometry_core():
     line = np.column_stack([np.linspace(0, 1, 50), np.linspace(0, 2, 50)])
     D = np.column_stack([line[:, 0] ** 2, line[:, 0] * line[:, 1], line[:, 1] ** 2, line[:, 0], line[:, 1], np.ones(50)])
     for S in (np.zeros((6, 6)), D.T @ D, np.full((6, 6), np.nan)):
-        coef, ok = kernels.direct_fit(S)
+        coef, ok = ellipses.direct_fit(S)
         assert not ok and np.isnan(coef).all()
 
 
 
 def test_compiled_ellipse_screen_matches_numpy():
-    # kernels.ellipse_params (the ellipse search's screen of its hypotheses: the
+    # ellipses.ellipse_params (the ellipse search's screen of its hypotheses: the
     # conics of normalised coordinates in pixels, then their axes and angles)
     # against the same formulas in numpy, digit for digit, and against
     # geometry.conics.ellipse_from_conic on real ellipses
-    from arstream import kernels
+    from arstream.detect.kernels import ellipses
     from geometry.conics import conic_from_ellipse, ellipse_from_conic
 
     rng = np.random.default_rng(4)
@@ -678,7 +677,7 @@ def test_compiled_ellipse_screen_matches_numpy():
         truth.append(e)
     coefs += [np.array([1.0, 0.0, -1.0, 0.0, 0.0, -1.0]), np.array([1.0, 0.0, 1.0, 0.0, 0.0, 1.0]), np.zeros(6), np.full(6, np.nan)]  # hyperbola, imaginary, zero, NaN
     coef = np.array(coefs)
-    a, b, ang, ok = kernels.ellipse_params(coef, s, m[0], m[1])
+    a, b, ang, ok = ellipses.ellipse_params(coef, s, m[0], m[1])
 
     # numpy: the conics in pixels, unit norm, then their parameters
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -713,10 +712,10 @@ def test_compiled_ellipse_screen_matches_numpy():
 
 
 def test_compiled_cut_and_visibility_tests_match_numpy():
-    # kernels.cut_by_line (is an arc cut off by a straight line, with its support
-    # beyond it: a penalty arc) and kernels.mask_at (the ellipse search's
+    # points.cut_by_line (is an arc cut off by a straight line, with its support
+    # beyond it: a penalty arc) and points.mask_at (the ellipse search's
     # "visible" test) against numpy formulas, on random ellipses, lines and masks
-    from arstream import kernels
+    from arstream.detect.kernels import points
 
     rng = np.random.default_rng(9)
     hits = 0
@@ -740,7 +739,7 @@ def test_compiled_cut_and_visibility_tests_match_numpy():
         # numpy: lines cutting the ellipse away from its centre, with > 95 % of the support beyond
         cut = (np.abs(dc) < 0.95 * reach) & (np.abs(dc) >= 0.2 * reach)
         ref = bool(cut.any() and (np.mean(np.sign(P @ n[cut].T + L[cut, 2]) != np.sign(dc[cut]), axis=0) > 0.95).any())
-        assert kernels.cut_by_line(np.ascontiguousarray(P), np.ascontiguousarray(L), cx, cy, a, b, ang, 0.95) is ref
+        assert points.cut_by_line(np.ascontiguousarray(P), np.ascontiguousarray(L), cx, cy, a, b, ang, 0.95) is ref
         hits += ref
     assert 20 < hits < 380  # both answers occur
 
@@ -751,10 +750,10 @@ def test_compiled_cut_and_visibility_tests_match_numpy():
     ok = (p[:, 0] >= 0) & (p[:, 0] <= W - 1) & (p[:, 1] >= 0) & (p[:, 1] <= H - 1)
     ref = np.zeros(len(p), bool)
     ref[ok] = mask[np.clip((p[ok, 1] * fy).astype(int), 0, 89), np.clip((p[ok, 0] * fx).astype(int), 0, 159)] > 0
-    np.testing.assert_array_equal(kernels.mask_at(p, mask, fx, fy, W - 1.0, H - 1.0), ref)
+    np.testing.assert_array_equal(points.mask_at(p, mask, fx, fy, W - 1.0, H - 1.0), ref)
 
 def test_component_stats_are_opencvs():
-    from arstream import kernels
+    from arstream.detect.kernels import grass
 
     rng = np.random.default_rng(3)
     total = 0
@@ -762,7 +761,7 @@ def test_component_stats_are_opencvs():
         img = (cv2.GaussianBlur(rng.random((90, 160)).astype(np.float32), (0, 0), rng.uniform(0.5, 5)) > rng.uniform(0.3, 0.7)).astype(np.uint8) * 255
         for conn in (4, 8):
             n, lab, st, _ = cv2.connectedComponentsWithStats(img, connectivity=conn)
-            mine = kernels.component_stats(lab, n)
+            mine = grass.component_stats(lab, n)
             total += n - 1
             np.testing.assert_array_equal(mine[1:], st[1:])
             if st[0, cv2.CC_STAT_AREA]:
@@ -771,10 +770,10 @@ def test_component_stats_are_opencvs():
 
 
 def test_compiled_line_fits_are_fit_line():
-    # kernels.fit_lines (the detector's final fit of its line groups, all at
+    # points.fit_lines (the detector's final fit of its line groups, all at
     # once) against geometry.lines.fit_line of each group: the line, its
     # uncertainties and its extreme points; too few or coincident points give NaN
-    from arstream import kernels
+    from arstream.detect.kernels import points
     from geometry.lines import fit_line
 
     rng = np.random.default_rng(12)
@@ -792,7 +791,7 @@ def test_compiled_line_fits_are_fit_line():
     P[[7, 8, 9]] = [100.0, 200.0]
     groups.append(np.array([7, 8, 9]))  # coincident
     offsets = np.cumsum([0] + [len(g) for g in groups])
-    line, rms, sig_n, sig_a, ends, length = kernels.fit_lines(P, np.concatenate(groups).astype(np.int64), offsets)
+    line, rms, sig_n, sig_a, ends, length = points.fit_lines(P, np.concatenate(groups).astype(np.int64), offsets)
     for k, g in enumerate(groups[:60]):
         f = fit_line(P[g])
         s = np.sign(line[k] @ f.line)  # (either orientation of the normal)
@@ -805,12 +804,12 @@ def test_compiled_line_fits_are_fit_line():
 
 
 def test_compiled_frame_ellipse_is_ellipse_from_conic():
-    # kernels.frame_ellipse (a hypothesis of the ellipse search, a conic in
+    # ellipses.frame_ellipse (a hypothesis of the ellipse search, a conic in
     # normalised coordinates, as an ellipse in frame pixels) against
     # geometry.conics.ellipse_from_conic of the pulled-back conic, with the
     # non-ellipses it must refuse (status 1: hyperbola, parabola, zero, NaN;
     # 2: imaginary or a point)
-    from arstream import kernels
+    from arstream.detect.kernels import ellipses
     from geometry.conics import conic_from_ellipse, ellipse_from_conic
 
     rng = np.random.default_rng(21)
@@ -822,7 +821,7 @@ def test_compiled_frame_ellipse_is_ellipse_from_conic():
         Ti = np.linalg.inv(T)
         Cq = Ti.T @ conic_from_ellipse(e) @ Ti
         coef = np.array([Cq[0, 0], 2 * Cq[0, 1], Cq[1, 1], 2 * Cq[0, 2], 2 * Cq[1, 2], Cq[2, 2]]) * rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 10)
-        status, cx, cy, a, b, ang = kernels.frame_ellipse(coef, T)
+        status, cx, cy, a, b, ang = ellipses.frame_ellipse(coef, T)
         ref = ellipse_from_conic(T.T @ np.array([[coef[0], coef[1] / 2, coef[3] / 2], [coef[1] / 2, coef[2], coef[4] / 2], [coef[3] / 2, coef[4] / 2, coef[5]]]) @ T)
         got = Ellipse((cx, cy), (a, b), ang)
         assert status == 0
@@ -841,21 +840,21 @@ def test_compiled_frame_ellipse_is_ellipse_from_conic():
         ([0.0] * 6, 1),
         ([np.nan] * 6, 1),
     ]:
-        assert kernels.frame_ellipse(np.array(coef), T)[0] == status, coef
+        assert ellipses.frame_ellipse(np.array(coef), T)[0] == status, coef
         if status and np.isfinite(coef).all() and any(coef):
             with pytest.raises(ValueError, match="not an ellipse" if status == 1 else "imaginary"):
                 ellipse_from_conic(np.array([[coef[0], coef[1] / 2, coef[3] / 2], [coef[1] / 2, coef[2], coef[4] / 2], [coef[3] / 2, coef[4] / 2, coef[5]]]))
 
 
 def test_compiled_ellipse_search_set_up_matches_numpy():
-    # kernels.hartley_monomials (normalised points and their monomials) and
-    # kernels.label_scatters (the scatter matrix of each arc's free points)
+    # ellipses.hartley_monomials (normalised points and their monomials) and
+    # ellipses.label_scatters (the scatter matrix of each arc's free points)
     # against the numpy expressions they replace
-    from arstream import kernels
+    from arstream.detect.kernels import ellipses
 
     rng = np.random.default_rng(5)
     pts = rng.uniform(0, [640, 360], (2500, 2))
-    q, D, mx, my, s = kernels.hartley_monomials(pts)
+    q, D, mx, my, s = ellipses.hartley_monomials(pts)
     m = pts.mean(axis=0)
     s_ref = np.sqrt(2.0) / np.mean(np.hypot(*(pts - m).T))
     assert abs(mx - m[0]) < 1e-12 * 640 and abs(my - m[1]) < 1e-12 * 640 and s == pytest.approx(s_ref, rel=1e-13)
@@ -867,7 +866,7 @@ def test_compiled_ellipse_search_set_up_matches_numpy():
     free = rng.random(len(pts)) > 0.3
     slot_of = np.full(12, -1, np.int64)
     slot_of[[7, 2, 9, 0]] = [0, 1, 2, 3]
-    S = kernels.label_scatters(D, labels, free, slot_of)
+    S = ellipses.label_scatters(D, labels, free, slot_of)
     assert S.shape == (4, 6, 6)
     for k, lab in enumerate([7, 2, 9, 0]):
         Dk = D[free & (labels == lab)]
@@ -876,9 +875,9 @@ def test_compiled_ellipse_search_set_up_matches_numpy():
 
 
 def test_compiled_full_rows_match_numpy():
-    # kernels.full_rows (the screen-graphics test: rows of a component's box
+    # grass.full_rows (the screen-graphics test: rows of a component's box
     # that it fills) against the numpy rows count it replaces
-    from arstream import kernels
+    from arstream.detect.kernels import grass
 
     rng = np.random.default_rng(8)
     seen = 0
@@ -887,9 +886,9 @@ def test_compiled_full_rows_match_numpy():
         if t % 4 == 0:
             img[5:12, 20:90] = 255  # a solid box
         n, lab = cv2.connectedComponents(img, connectivity=4)
-        st = kernels.component_stats(lab, n)
+        st = grass.component_stats(lab, n)
         ks = np.arange(1, n, dtype=np.int64)
-        got = kernels.full_rows(lab, st, ks, 0.9)
+        got = grass.full_rows(lab, st, ks, 0.9)
         for k, (cnt, first, last) in zip(ks, got):
             x, y, bw, bh, _ = st[k]
             full = np.flatnonzero(np.count_nonzero(lab[y : y + bh, x : x + bw] == k, axis=1) >= 0.9 * bw)
@@ -900,10 +899,10 @@ def test_compiled_full_rows_match_numpy():
 
 
 def test_compiled_settling_of_line_points_matches_numpy():
-    # kernels.settle_points (the line points with grass beside them, in chains
+    # points.settle_points (the line points with grass beside them, in chains
     # long enough; their mask and frame coordinates) against the sequence of
     # numpy steps and kernels it replaces
-    from arstream import kernels
+    from arstream.detect.kernels import points
 
     rng = np.random.default_rng(2)
     w, h, wc, hc = 640, 360, 320, 180
@@ -916,12 +915,12 @@ def test_compiled_settling_of_line_points_matches_numpy():
         fx, fy = 160 / w, 90 / h
         grid = np.full((hc, wc), -1, np.int32)
         lm = np.full((h, w), 7, np.uint8)
-        sel, labels, full = kernels.settle_points(pts, nrm, 9.5, mask, fx, fy, wc / w, hc / h, grid, 5.0, lm, 2.0, 0.5, 2.0, 0.5)
-        keep = kernels.beside_grass(pts, nrm, 9.5, mask, fx, fy)
+        sel, labels, full = points.settle_points(pts, nrm, 9.5, mask, fx, fy, wc / w, hc / h, grid, 5.0, lm, 2.0, 0.5, 2.0, 0.5)
+        keep = points.beside_grass(pts, nrm, 9.5, mask, fx, fy)
         idx = np.flatnonzero(keep)
         cxi = np.clip((pts[idx, 0] * (wc / w)).astype(np.int64), 0, wc - 1)
         cyi = np.clip((pts[idx, 1] * (hc / h)).astype(np.int64), 0, hc - 1)
-        lab, ex, ey = kernels.chains(cxi, cyi, 1, np.full((hc, wc), -1, np.int32))
+        lab, ex, ey = points.chains(cxi, cyi, 1, np.full((hc, wc), -1, np.int32))
         k2 = np.maximum(ex, ey) + 1 >= 5.0
         np.testing.assert_array_equal(sel, idx[k2])
         np.testing.assert_array_equal(labels, lab[k2])

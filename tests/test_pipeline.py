@@ -25,7 +25,10 @@ import pytest
 
 import arstream
 from arstream.cli import entry, main
-from arstream.pipeline import Analysis, GrassKeyI420, Summary, composite_i420
+from arstream.pipeline import Summary
+from arstream.pipeline.stages import Analysis
+from render.compositor import composite_i420
+from render.keying import GrassKeyI420
 from arstream.sink import VideoSink, atomic_path, read_jsonl
 from arstream.source import VideoSource, i420_planes
 from arstream.synth import generate
@@ -531,7 +534,7 @@ def test_composite_i420_matches_bgr_over():
 
 @pytest.mark.parametrize("grow", [0, 3, 4])
 def test_key_i420_is_refine_matte_on_the_i420_planes(grow):
-    # the compiled key of an I420 frame (pipeline.GrassKeyI420) against
+    # the compiled key of an I420 frame (render.keying.GrassKeyI420) against
     # render.keying.refine_matte on the BGR conversion of the same rectangles:
     # pixel for pixel, on a frame of the sample clip (grass, lines, players,
     # stands) and on random colours (every hue, saturation and value)
@@ -675,7 +678,8 @@ def test_library_pools_during_a_run_and_restored_after(small, pool_threads):
     afterwards, also when a stage fails; ``pool_threads=None`` leaves them alone."""
     from threadpoolctl import threadpool_info, threadpool_limits
 
-    from arstream.pipeline import Pipeline, Stage
+    from arstream.pipeline.runner import Pipeline
+    from arstream.pipeline.stage import Stage
 
     def blas():
         return sorted({p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"})
@@ -711,7 +715,8 @@ def test_overlapped_worker_yields_to_the_encoder(small):
     made it (the encoder's threads go first); the caller's thread is untouched."""
     import threading
 
-    from arstream.pipeline import WORKER_NICE, Item, Stage, ThreadedStage, _overlapped
+    from arstream.pipeline.api import WORKER_NICE, _overlapped
+    from arstream.pipeline.stage import Item, Stage, ThreadedStage
 
     def niceness():
         return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
@@ -742,7 +747,7 @@ def test_decode_thread_niceness(small, nice):
     (process and render_clip pass WORKER_NICE; live streams 0)."""
     import threading
 
-    from arstream.pipeline import Pipeline
+    from arstream.pipeline.runner import Pipeline
 
     def niceness():
         return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
@@ -770,7 +775,8 @@ def test_prepare_runs_on_the_decode_thread_and_fills_the_items(small):
     import threading
 
     from arstream.imaging import grey_thumbnail
-    from arstream.pipeline import Item, Pipeline, Stage
+    from arstream.pipeline.runner import Pipeline
+    from arstream.pipeline.stage import Item, Stage
 
     an = Analysis(320, 180, 160)
     threads, seen = [], []

@@ -281,7 +281,7 @@ def whip_pan_errors(config=None):
 
     from arstream.detect import Detector
     from arstream.evaluate import frame_error
-    from arstream.pipeline import Analysis
+    from arstream.pipeline.stages import Analysis
 
     clip = SynthClip("hard", seed=11, frames=250, size=SIZE)
     an = Analysis(*SIZE, 640)
@@ -346,7 +346,7 @@ def _whip_frames(frames):
     with their true cameras in analysis pixels; and the Analysis."""
     import cv2
 
-    from arstream.pipeline import Analysis
+    from arstream.pipeline.stages import Analysis
 
     clip = SynthClip("hard", seed=11, frames=250, size=SIZE)
     an = Analysis(*SIZE, 640)
@@ -450,7 +450,7 @@ def test_tracker_predicts_over_dropped_frames():
 
     from arstream.detect import Detector
     from arstream.evaluate import frame_error
-    from arstream.pipeline import Analysis
+    from arstream.pipeline.stages import Analysis
 
     clip = SynthClip("hard", seed=11, frames=250, size=SIZE)
     an = Analysis(*SIZE, 640)
@@ -554,10 +554,10 @@ def test_line_index_edge_cases():
 
 @pytest.mark.parametrize("dist", [(), (-0.08,), (0.3, -0.2)], ids=["pinhole", "k1", "k1k2-fold"])
 def test_compiled_projection_matches_camera_project(dist):
-    # kernels.project_points (the refinement's and the visibility test's projection)
+    # solve_kernels.project_points (the refinement's and the visibility test's projection)
     # against geometry.camera.Camera.project: same pixels, NaN behind the camera and
     # past the lens polynomial's fold, and the in-view test with a margin
-    from arstream.kernels import project_points
+    from arstream.solve_kernels import project_points
 
     rng = np.random.default_rng(3)
     cam = camera_from_ptz(np.array([0.0, -40.0, 12.0]), PTZ(0.2, 0.3, 0.02, 900.0), (640.0, 360.0), dist=dist)
@@ -580,12 +580,12 @@ def test_compiled_projection_matches_camera_project(dist):
 
 @pytest.mark.parametrize("k1", [0.0, -0.06])
 def test_marking_residuals_and_their_jacobian(k1):
-    # kernels.marking_residuals: residuals = normal distance of the distorted
+    # solve_kernels.marking_residuals: residuals = normal distance of the distorted
     # projection from the matched pixel, 50 (flat) behind the camera; its Jacobian
     # (left rotation perturbation, centre, log f, k1) against central differences
     import cv2
 
-    from arstream.kernels import marking_residuals
+    from arstream.solve_kernels import marking_residuals
 
     rng = np.random.default_rng(5)
     C = np.array([2.0, -45.0, 14.0])
@@ -644,7 +644,7 @@ def _pose_maps(R_ref, C):
 def test_pose_from_params_is_the_rodrigues_perturbation():
     import cv2
 
-    from arstream.kernels import pose_from_params
+    from arstream.solve_kernels import pose_from_params
 
     C = np.array([2.0, -45.0, 14.0])
     R_ref = camera_from_ptz(C, PTZ(0.1, 0.35, -0.01, 1000.0), (640.0, 360.0)).R
@@ -659,12 +659,12 @@ def test_pose_from_params_is_the_rodrigues_perturbation():
 
 @pytest.mark.parametrize("which", [0, 1, 2], ids=["free-centre", "fixed-centre-k1", "pan-held"])
 def test_refine_pose_reaches_the_soft_l1_minimum_scipy_finds(which):
-    # kernels.refine_pose (compiled LM, soft-L1 by reweighting) against
+    # solve_kernels.refine_pose (compiled LM, soft-L1 by reweighting) against
     # scipy.optimize.least_squares(loss="soft_l1") on the same residuals, with
     # 15 % gross outliers among the matches and a start a few pixels off
     import scipy.optimize
 
-    from arstream.kernels import marking_residuals, pose_from_params, refine_pose
+    from arstream.solve_kernels import marking_residuals, pose_from_params, refine_pose
 
     rng = np.random.default_rng(which)
     C = np.array([2.0, -45.0, 14.0])

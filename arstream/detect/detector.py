@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from arstream.imaging import shrink
-from arstream.kernels import chains, cut_by_line, fit_lines, grid_clear, mask_at, settle_points, warm_up_async
+from arstream.detect.kernels.points import chains, cut_by_line, fit_lines, grid_clear, mask_at, settle_points
 
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
@@ -127,6 +127,8 @@ class Detector:
         self._rbufs: dict = {}
         self.frames = 0
         self._prev_conics: list = []  # the previous frame's ellipses (frame pixels)
+        from arstream.kernels import warm_up_async  # (here: arstream.kernels imports this package's kernels)
+
         warm_up_async()  # load the compiled kernels while the caller starts up
 
     # -----------------------------------------------------------------------------
@@ -410,7 +412,7 @@ def _cut_by_line(e, P: np.ndarray, L: np.ndarray) -> bool:
     ellipse with all the support ``P`` (N, 2) on its side away from the
     ellipse's centre: a penalty arc beyond the penalty area's front line (the
     halfway line, through the centre circle's middle, is no such line).
-    One compiled loop (:func:`arstream.kernels.cut_by_line`)."""
+    One compiled loop (:func:`arstream.detect.kernels.points.cut_by_line`)."""
     if not len(L):
         return False
     (cx, cy), (a, b) = e.center, e.axes

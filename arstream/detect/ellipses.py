@@ -7,12 +7,12 @@
    every large arc, pair and triple of arcs. Each arc's scatter matrix of
    conic monomials is computed once; the scatter of a union is the sum, so
    each hypothesis is one small 3x3 eigenproblem (compiled:
-   :func:`arstream.kernels.direct_fits`).
+   :func:`arstream.detect.kernels.ellipses.direct_fits`).
 3. Scoring: the points within a Sampson distance of each hypothesis *and*
    whose ridge normal agrees with the conic's gradient there.
 4. Refinement: iteratively reweighted direct fits on the inliers (Sampson
    gradient weights, which turn the algebraic fit into an approximately
-   geometric one; compiled: :func:`arstream.kernels.refine_conic`).
+   geometric one; compiled: :func:`arstream.detect.kernels.ellipses.refine_conic`).
 5. Validation: size, shape (a ground circle seen from above: minor axis
    roughly vertical, b/a well under 1 but above 0.1, i.e. seen from at least
    about 6 degrees above the pitch: the tip of a flatter one fits two lines
@@ -30,7 +30,8 @@ import math
 
 import numpy as np
 
-from arstream.kernels import chains, conic_band, conic_counts, direct_fits, ellipse_params, frame_ellipse, hartley_monomials, label_scatters, perimeter_bins, refine_conic
+from arstream.detect.kernels.ellipses import conic_band, conic_counts, direct_fits, ellipse_params, frame_ellipse, hartley_monomials, label_scatters, perimeter_bins, refine_conic
+from arstream.detect.kernels.points import chains
 from geometry.conics import Ellipse
 
 __all__ = ["EllipseCandidate", "find_ellipses"]
@@ -51,7 +52,7 @@ class _PerimeterBins:
     The perimeter is cut into ``bins`` equal steps of the parametric angle; a
     bin counts when it holds at least ``density`` of the points expected along
     its arc length at one point per ``spacing`` px
-    (:func:`arstream.kernels.perimeter_bins`). ``cov``: covered arc length over
+    (:func:`arstream.detect.kernels.ellipses.perimeter_bins`). ``cov``: covered arc length over
     the whole perimeter, at once; :meth:`visible_coverage`: over the part of
     it that ``visible`` (a callable, points (N, 2) -> (N,) bool; everything
     when None) says could be seen, asked only when wanted.
@@ -129,7 +130,7 @@ def find_ellipses(
     pts_full : (N, 2) the points in frame pixels (``A_wf`` applied), optional
         (the caller's copy; made here by default)
     labels : (N,) int, optional, connected chain of each point (0: none); by default
-        the points' chains, linked within 3 px (:func:`arstream.kernels.chains`)
+        the points' chains, linked within 3 px (:func:`arstream.detect.kernels.points.chains`)
     seed : (N,) bool, optional: points that may seed hypotheses (arcs); the
         others (stretches that also passed for short straight lines) only
         support them, or seed as arcs of their own: ``group`` (N,) int, the
@@ -331,7 +332,7 @@ def _refine(coef0, q, nrm, fidx, s, tol, first_band=None):
     default 1.5 ``tol``): the first inlier band (wider for a prediction from
     the previous frame). The later bands lie inside the first: only the points
     near the hypothesis take part (the fits move the conic by a fraction of a
-    pixel). One compiled loop (:func:`arstream.kernels.refine_conic`)."""
+    pixel). One compiled loop (:func:`arstream.detect.kernels.ellipses.refine_conic`)."""
     if first_band is None:
         first_band = 1.5 * tol
     coef, idx, rms, ok = refine_conic(np.ascontiguousarray(coef0, np.float64), q, nrm, fidx.astype(np.int64, copy=False), float(s), float(tol), float(first_band))

@@ -17,7 +17,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.kernels import component_stats, full_rows
+from arstream.detect.kernels.grass import component_stats, full_rows
 
 __all__ = ["GrassModel", "GrassResult", "grass_masks"]
 
@@ -115,7 +115,7 @@ _K5 = cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5))
 def _components(mask: np.ndarray, connectivity: int) -> tuple[int, np.ndarray, np.ndarray]:
     """``cv2.connectedComponentsWithStats`` without the centroids: (n, labels,
     stats (n, 5) in OpenCV's layout), the statistics in one compiled pass
-    (:func:`arstream.kernels.component_stats`)."""
+    (:func:`arstream.detect.kernels.grass.component_stats`)."""
     n, lab = cv2.connectedComponents(mask, connectivity=connectivity)
     return n, lab, component_stats(lab, n)
 

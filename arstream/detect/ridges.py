@@ -18,7 +18,7 @@ Three steps, at the working resolution:
    edge is bright on one side only) and be elongated (``|l2| < |l1|``).
    Past the top-hat, the smoothing and the candidate mask (OpenCV), steps 1
    and 2 are one compiled loop over the image
-   (:func:`arstream.kernels.ridge_scan`).
+   (:func:`arstream.detect.kernels.ridges.ridge_scan`).
 3. Bands: a line smeared by a fast pan is a band as wide as the scale. On a
    stripe's edge its plateau slopes down with the step, so its maximum sits at
    the bright end (1-2 px off); on flat grass it wanders over the plateau.
@@ -35,7 +35,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.kernels import band_scan, ridge_scan
+from arstream.detect.kernels.ridges import band_scan, ridge_scan
 
 __all__ = ["RidgePoints", "ridge_points"]
 
@@ -146,7 +146,7 @@ def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int)
     nrm : (N, 2) unit normals across the bands
     reach : samples each side (at least 6)
 
-    One compiled loop over the points (:func:`arstream.kernels.band_scan`).
+    One compiled loop over the points (:func:`arstream.detect.kernels.ridges.band_scan`).
 
     Returns
     -------

@@ -3,7 +3,7 @@
 Every ridge centre carries its own line normal (from the Hessian), so it
 votes once, in its own (theta, rho) cell, instead of along a whole
 sinusoid: the accumulator is a 2-D histogram (one compiled pass,
-:func:`arstream.kernels.hough_votes`, which also finds its peaks).
+:func:`arstream.detect.kernels.segments.hough_votes`, which also finds its peaks).
 Local maxima are taken strongest first; each gathers the still unassigned
 points of the nearby orientations that lie close to it and point the same
 way, is refitted by total least squares, cut at gaps longer than
@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from arstream.kernels import hough_lines, hough_votes
+from arstream.detect.kernels.segments import hough_lines, hough_votes
 
 __all__ = ["LineGroup", "group_lines"]
 

@@ -1,0 +1,329 @@
+"""The library API: :func:`process` (``arstream process``), :func:`render_clip`
+(``arstream render``) and :func:`stream` (``arstream stream``), each a
+:class:`arstream.pipeline.runner.Pipeline` of the stages it needs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import os
+import sys
+from typing import Callable
+
+from arstream.errors import InputError
+from arstream.pipeline.encode import EncodeStage
+from arstream.pipeline.runner import Pipeline
+from arstream.pipeline.stage import Stage, ThreadedStage
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, TrackStage
+from arstream.pipeline.summary import Summary
+from arstream.source import VideoSource
+
+__all__ = ["process", "render_clip", "stream", "DEFAULT_LAG", "WORKER_NICE"]
+
+#: Default lag (frames) of the offline smoother.
+DEFAULT_LAG = 10
+
+#: Niceness added to the threads that work ahead of the main thread in
+#: :func:`process` and :func:`render_clip`: the overlapped stage's worker
+#: (detection, keying) and the decode thread with FFmpeg's decoder threads.
+#: x264 is their bottleneck and its frame threads stall on one another; the
+#: threads ahead, with frames queued, do their work in those gaps rather than
+#: beside x264. At 720p, five alternating pairs each: the worker alone about
+#: 54.6 fps against 51.8, with the decoder too about 56.8 against 53.7.
+WORKER_NICE = 10
+
+
+def _overlapped(stage: Stage, overlap: bool) -> Stage:
+    """``stage`` on a worker thread one frame ahead (when it does work), else as is."""
+    if overlap and getattr(stage, "available", True):
+        return ThreadedStage(stage, nice=WORKER_NICE)
+    return stage
+
+
+def _has(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def _missing(*stages) -> list[str]:
+    """Stages whose module is not in this build (they pass frames through)."""
+    return [name for name, mod in (("detect", "arstream.detect"), ("track", "arstream.track")) if any(st.name == name for st in stages) and not _has(mod)]
+
+
+def _open(input, *, format=None, options=None, threads: bool = True) -> VideoSource:
+    return VideoSource(input, format=format, options=options, threads=threads)
+
+
+def _check_output(output, input) -> None:
+    if output is not None and os.path.abspath(os.fspath(output)) == os.path.abspath(os.fspath(input)):
+        raise InputError(f"output {output} would overwrite the input")
+
+
+def _build(stages_fn, source: VideoSource) -> list[Stage]:
+    """Create the stages; close the ones already made if a later one fails."""
+    made: list[Stage] = []
+    try:
+        for make in stages_fn:
+            st = make()
+            if st is not None:
+                made.append(st)
+    except BaseException:
+        for st in made:
+            with contextlib.suppress(Exception):
+                if isinstance(st, EncodeStage):
+                    st.close()
+                    with contextlib.suppress(OSError):
+                        os.remove(st.path)  # nothing was written: leave no empty file
+                else:
+                    st.close()
+        raise
+    return made
+
+def _boxed(box: list, stage):
+    """Put ``stage`` in ``box`` (for stages built before it to reach) and return it."""
+    box.append(stage)
+    return stage
+
+
+def _hints_of(box: list):
+    """The detector's hints from the tracker of the TrackStage in ``box`` (filled
+    once it is built): a callable for :class:`DetectStage`, frame -> ``{motion,
+    line_width}`` as of that frame (each None where the tracker does not know)."""
+
+    def hints(frame: int) -> dict:
+        tracker = box[0].tracker if box else None
+        if tracker is None or not hasattr(tracker, "image_motion"):
+            return {}
+        return {"motion": tracker.image_motion(frame), "line_width": tracker.line_width(frame)}
+
+    return hints
+
+def _load_kernels() -> None:
+    """Start loading the compiled kernels on a background thread (once per
+    process; see :func:`arstream.kernels.warm_up_async`), so that numba's
+    set-up overlaps opening the input and building the stages rather than
+    following them (the detector would start it only once it is made)."""
+    from arstream.kernels import warm_up_async
+
+    warm_up_async()
+
+
+def process(
+    input,
+    output=None,
+    *,
+    scene=None,
+    cameras_out=None,
+    lag: int = DEFAULT_LAG,
+    crf: int = 20,
+    preset: str = "veryfast",
+    audio: bool = True,
+    progress: Callable | None = None,
+    max_frames: int | None = None,
+    handle_signals: bool = True,
+    overlap: bool = True,
+    analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+    threads: int = 0,
+    keep_b_frames: bool = True,
+) -> Summary:
+    """Augment a clip: detect, solve, track (fixed-lag smoothing), render, composite, encode.
+
+    Mirrors ``arstream process IN -o OUT.mp4 [--scene S] [--cameras-out C]``.
+
+    Parameters
+    ----------
+    input : path of a video file
+    output : path of the augmented video (H.264; the input's frame rate, time
+        base and audio kept), or None to write only ``cameras_out``
+    scene : path of a scene file (.toml/.json), a ``render.Scene``, or None
+        for the demo scene (a logo on the grass and an offside line)
+    cameras_out : path for ``cameras.jsonl`` (one record per frame), optional
+    lag : frames of look-ahead of the smoother (0: causal, as live)
+    crf, preset : x264 quality and speed
+    audio : copy the input's first audio stream through
+    keep_b_frames : code the input's B-frames as B-frames (the input's frame
+        pattern kept: a smaller output, closer to the input; see
+        :class:`arstream.sink.VideoSink`); False: x264 chooses every frame's type
+    progress : callable(done, total), optional
+    max_frames : stop after this many frames
+    handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
+    overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
+    analysis_width : width (pixels) of the frames detection and tracking work on;
+        None or 0: full resolution (see :class:`Analysis`)
+    threads : 0 (default): use the machine (detection overlapped on a thread,
+        decoder threads as FFmpeg chooses); 1: about one core's worth of work
+        per clip (no overlap, single-threaded decode), for running as many
+        clips at once as there are cores (``arstream batch``). x264 keeps its
+        own threading either way: its output depends on its thread count, and
+        a clip's video must not depend on how many ran beside it.
+
+    Returns
+    -------
+    Summary. ``summary.errors`` lists damage found in the input (the frames
+    that decoded were processed).
+
+    Raises
+    ------
+    InputError : missing file, not a video, bad output path
+    ArstreamError : no OpenGL context (names the fix), stage failures
+    Interrupted : stopped by a signal, after the outputs were finalised
+    """
+    if output is None and cameras_out is None:
+        raise InputError("nothing to write: give an output video, cameras_out, or both")
+    _check_output(output, input)
+    _check_output(cameras_out, input)
+    if threads < 0:
+        raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
+    single = threads == 1
+    _load_kernels()
+    with _open(input, threads=not single) as src:
+        W, H = src.width, src.height
+        an = Analysis(W, H, analysis_width)
+        track_box: list = []
+        stages = _build(
+            [
+                lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an)),
+                (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
+                (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
+                (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
+            ],
+            src,
+        )
+        # (the analysis frame on the decode thread, from the planes it just copied)
+        prepare = an.prepare if _has("arstream.detect") else None
+        pipe = Pipeline(src, stages, progress=progress, max_frames=max_frames, decode_nice=WORKER_NICE, prepare=prepare)
+        pipe.summary.output = os.fspath(output) if output is not None else None
+        pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)
+
+
+def render_clip(
+    input,
+    cameras,
+    output,
+    *,
+    scene=None,
+    key: bool | str | Callable = True,
+    crf: int = 20,
+    preset: str = "veryfast",
+    audio: bool = True,
+    progress: Callable | None = None,
+    handle_signals: bool = True,
+    overlap: bool = True,
+    keep_b_frames: bool = True,
+) -> Summary:
+    """Draw a scene on a clip with cameras read from a ``cameras.jsonl`` (no solving).
+
+    The decode -> composite -> encode loop of :func:`process`, for
+    ``arstream render``. ``key`` chooses the grass matte that keys on-grass
+    graphics (players pass in front of them): True or "detector" runs the
+    detector (no keying when this build has none); "green" a chroma key on the
+    grass hue; a callable(image_bgr) -> (H, W) uint8 matte your own; False or
+    None no keying. ``overlap`` computes the matte of frame i+1 on a worker
+    thread while frame i is rendered. ``keep_b_frames`` as for :func:`process`.
+    """
+    _check_output(output, input)
+    if key is True:
+        key = "detector"
+    if not (key in (None, False, "detector", "green") or callable(key)):
+        raise InputError(f"key must be 'detector', 'green', a function or None, got {key!r}")
+    with _open(input) as src:
+        W, H = src.width, src.height
+        if key == "detector":
+            make_key = lambda: _overlapped(DetectStage(W, H, analysis=Analysis(W, H, DEFAULT_ANALYSIS_WIDTH)), overlap)  # noqa: E731
+        elif key == "green":
+            make_key = lambda: _overlapped(MatteStage.green(W, H), overlap)  # noqa: E731
+        elif callable(key):
+            make_key = lambda: _overlapped(MatteStage(key), overlap)  # noqa: E731
+        else:
+            make_key = lambda: None  # noqa: E731
+        stages = _build(
+            [
+                make_key,
+                lambda: CamerasInStage(cameras),
+                lambda: RenderStage(W, H, scene),
+                lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames),
+            ],
+            src,
+        )
+        pipe = Pipeline(src, stages, progress=progress, decode_nice=WORKER_NICE)
+        pipe.summary.output = os.fspath(output)
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)
+
+
+def stream(
+    source,
+    *,
+    rerun: tuple | list | str | None = None,
+    realtime: bool | None = None,
+    scene=None,
+    output=None,
+    cameras_out=None,
+    format: str | None = None,
+    options: dict | None = None,
+    bind: str = "127.0.0.1",
+    port: int = 9876,
+    jpeg_quality: int = 75,
+    max_frames: int | None = None,
+    progress: Callable | None = None,
+    handle_signals: bool = True,
+    warn: Callable[[str], None] | None = None,
+    analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+) -> Summary:
+    """Live mode: causal tracking (no look-ahead) of a file, URL or capture device,
+    logged to rerun. Mirrors ``arstream stream --source SRC [--rerun ...] [--realtime]``.
+
+    Parameters
+    ----------
+    source : file path, URL (rtsp://, http://, udp://, ...) or device (with ``format``,
+        e.g. ``format="v4l2"``, ``source="/dev/video0"``)
+    rerun : None (no logging), "spawn", ("save", path), ("connect", url or None), "serve"
+    realtime : pace to the source clock and drop frames rather than fall behind;
+        None: on for URLs and devices, off for files
+    scene, output, cameras_out : as :func:`process` (output and cameras optional)
+    bind, port : address of the rerun gRPC server for ``serve``
+    jpeg_quality : quality of the JPEG frames sent to rerun
+    warn : callable(str) for non-fatal problems (unreachable viewer); default stderr
+    analysis_width : as :func:`process`
+    """
+    from arstream.live import RerunLogger, parse_rerun
+
+    warn = warn or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
+    mode = parse_rerun(rerun)
+    if output is not None:
+        _check_output(output, source)
+    _load_kernels()
+    with _open(source, format=format, options=options) as src:
+        W, H = src.width, src.height
+        rt = src.is_live if realtime is None else bool(realtime)
+        an = Analysis(W, H, analysis_width)
+        logger_box: list = []
+        track_box: list = []
+
+        def make_logger():
+            if mode is None:
+                return None
+            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an)
+            logger_box.append(lg)
+            return lg.input_stage
+
+        stages = _build(
+            [
+                lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an)),
+                make_logger,
+                lambda: RenderStage(W, H, scene),
+                (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
+                (lambda: EncodeStage(output, src, audio=not src.is_live, rebase=src.is_live)) if output is not None else (lambda: None),
+                (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
+            ],
+            src,
+        )
+        pipe = Pipeline(src, stages, realtime=rt, queue_size=1 if rt else 2, progress=progress, max_frames=max_frames)
+        pipe.summary.output = os.fspath(output) if output is not None else None
+        pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+        pipe.summary.missing = _missing(*stages)
+        return pipe.run(handle_signals=handle_signals)

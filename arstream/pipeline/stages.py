@@ -1,0 +1,428 @@
+"""The pipeline's stages: detection (with the analysis frame it works on),
+tracking, the grass matte, cameras read from and written to ``cameras.jsonl``,
+and rendering (draw, key, composite; the keys and the compositing themselves
+are :mod:`render`'s). The encoder's stage is :mod:`arstream.pipeline.encode`.
+"""
+
+from __future__ import annotations
+
+import collections
+import importlib
+import importlib.util
+import os
+from typing import Callable, Iterable
+
+import cv2
+import numpy as np
+
+from arstream.errors import ArstreamError, InputError
+from arstream.estimate import CameraEstimate
+from arstream.imaging import grey_thumbnail, shrink
+from arstream.pipeline.stage import Item, Stage, _matte_of
+from arstream.sink import JsonlWriter
+from arstream.source import Frame, i420_planes
+from render.compositor import composite_i420
+from render.keying import GrassKeyI420
+
+__all__ = [
+    "Analysis",
+    "DetectStage",
+    "MatteStage",
+    "TrackStage",
+    "CamerasInStage",
+    "RenderStage",
+    "CamerasOutStage",
+    "load_scene_arg",
+    "DEFAULT_ANALYSIS_WIDTH",
+]
+
+#: Default width (pixels) of the frames detection and tracking work on (see :class:`Analysis`).
+DEFAULT_ANALYSIS_WIDTH = 640
+
+def _optional(module: str, attr: str):
+    """``module.attr`` if the module exists, else None (errors inside it propagate)."""
+    if importlib.util.find_spec(module) is None:
+        return None
+    return getattr(importlib.import_module(module), attr, None)
+
+
+class Analysis:
+    """The frame size detection and tracking work at, and the map back to frame pixels.
+
+    Broadcast frames carry far more pixels than the camera needs: detecting
+    and solving on a frame scaled to ``analysis_width`` pixels wide costs a
+    fraction of full resolution, and the solved camera is mapped back exactly
+    (``K_frame = S K_analysis``; R, t and the distortion, which lives in
+    normalised coordinates, are unchanged). Pixel centres are at integer
+    coordinates in both (DESIGN.md section 2), so analysis pixel ``u`` is
+    frame pixel ``sx u + (sx - 1) / 2``.
+
+    The scaled frame comes straight from the decoder's I420 planes (luma and
+    chroma resized on their own, one colour conversion at the small size):
+    the full-size BGR frame is never made on this path. :meth:`prepare` makes
+    it, on whichever thread calls it: :func:`process` calls it on the decode
+    thread, just after the frame was copied out of the decoder (its planes
+    are still in that core's cache).
+
+    Parameters
+    ----------
+    width, height : frame size
+    analysis_width : int or None; None or >= width: full resolution. Rounded
+        to even; the height keeps the aspect ratio (even too).
+    """
+
+    def __init__(self, width: int, height: int, analysis_width: int | None = None):
+        self.W, self.H = int(width), int(height)
+        if analysis_width is None or analysis_width <= 0 or analysis_width >= width:
+            w, h = self.W, self.H
+        else:
+            w = max(16, int(round(analysis_width / 2.0)) * 2)
+            h = max(16, int(round(self.H * w / self.W / 2.0)) * 2)
+        self.w, self.h = w, h
+        self.full = (w, h) == (self.W, self.H)
+        self.sx, self.sy = self.W / w, self.H / h
+        #: (3, 3) analysis pixels -> frame pixels
+        self.S = np.array([[self.sx, 0.0, (self.sx - 1) / 2], [0.0, self.sy, (self.sy - 1) / 2], [0.0, 0.0, 1.0]])
+
+    def prepare(self, frame: Frame) -> dict:
+        """The :class:`Item` fields made from ``frame`` for detection and tracking:
+        ``analysis`` (BGR (h, w, 3) at the analysis size) and, from an I420
+        frame, ``thumbnail`` (the tracker's, from the scaled luma). Empty at full
+        resolution (the frame itself is the analysis image)."""
+        if self.full:
+            return {}
+        if frame.yuv is not None and not frame.has_image:
+            buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
+            src, dst = i420_planes(frame.yuv, frame.width, frame.height), i420_planes(buf, self.w, self.h)
+            shrink(src[0], (self.w, self.h), dst=dst[0])
+            for k in (1, 2):
+                shrink(src[k], (self.w // 2, self.h // 2), dst=dst[k])
+            return {"analysis": cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420), "thumbnail": grey_thumbnail(dst[0], video_range=True)}
+        return {"analysis": shrink(frame.image, (self.w, self.h))}
+
+    def image(self, item: Item) -> np.ndarray:
+        """BGR (h, w, 3) of the item's frame at the analysis size (cached on the
+        item, with its thumbnail: :meth:`prepare`, unless that ran already)."""
+        if self.full:
+            return item.frame.image
+        if item.analysis is None:
+            for k, v in self.prepare(item.frame).items():
+                setattr(item, k, v)
+        return item.analysis
+
+    def camera(self, cam):
+        """The camera of the full frame from the camera of the analysis image."""
+        if self.full or cam is None:
+            return cam
+        from geometry.camera import Camera
+
+        return Camera(K=self.S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+
+    def points(self, pts) -> np.ndarray:
+        """(N, 2) analysis pixels -> frame pixels."""
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.full:
+            return pts
+        return pts * (self.sx, self.sy) + ((self.sx - 1) / 2, (self.sy - 1) / 2)
+
+    def ellipse(self, ell):
+        """A geometry.conics.Ellipse in analysis pixels -> frame pixels (exact for sx == sy)."""
+        if self.full or ell is None:
+            return ell
+        from geometry.conics import ellipse_from_conic
+
+        Sinv = np.linalg.inv(self.S)
+        return ellipse_from_conic(Sinv.T @ ell.conic @ Sinv)
+
+
+class DetectStage(Stage):
+    """Pitch markings and the grass matte: :class:`arstream.detect.Detector`,
+    on the frame at the analysis size (see :class:`Analysis`).
+
+    Without a detector module every item passes with ``detections=None``
+    (``available`` is False). ``item.matte`` is the detector's grass mask, at
+    the analysis size (the render stage scales it up). A ``detector`` given
+    instead has the same ``process(image, lazy=True)`` contract. ``hints``: a
+    callable giving the tracker's hints as of a frame (keyword arguments of
+    :meth:`arstream.detect.Detector.process`: ``motion``, the sideways image
+    motion, and ``line_width``, the widest painted line, analysis pixels),
+    passed on to the detector as of two frames back (it skips the search for
+    lines smeared by a fast pan when the image moves slowly, and the coarse
+    pass for wide lines when the lines are thin too).
+    """
+
+    name = "detect"
+
+    def __init__(self, width: int, height: int, detector=None, *, analysis: Analysis | None = None, hints=None):
+        self.analysis = analysis or Analysis(width, height)
+        self.hints = hints  # (frame) -> dict of the detector's hints as of then
+        if detector is None:
+            cls = _optional("arstream.detect", "Detector")
+            detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
+        self.detector = detector
+        self.available = detector is not None
+
+    def process(self, item: Item) -> list[Item]:
+        if self.detector is not None:
+            # lines and ellipses on demand: a tracker following a locked camera
+            # needs only the line points (re-initialisation asks for the rest)
+            # as of two frames back: what a tracker one frame behind (the detector on
+            # its own thread) has surely solved, so threaded or not, the same hint
+            hint = {} if self.hints is None else self.hints(item.index - 2)
+            det = self.detector.process(self.analysis.image(item), lazy=True, **hint)
+            item.detections = det
+            item.matte = _matte_of(det)
+        return [item]
+
+class MatteStage(Stage):
+    """A grass matte from a function of the BGR frame (e.g. ``render.keying.green_matte``),
+    for keying without the detector.
+
+    Parameters
+    ----------
+    fn : callable(image_bgr) -> (H, W) uint8 matte, 255 = grass
+    """
+
+    name = "key"
+
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray]):
+        self.fn = fn
+
+    def process(self, item: Item) -> list[Item]:
+        item.matte = self.fn(item.frame.image)
+        return [item]
+
+    @classmethod
+    def green(cls, width: int, height: int) -> "MatteStage":
+        """Chroma key on the grass hue (``render.keying.green_matte``), into a reused buffer."""
+        from render.keying import green_matte
+
+        buf = np.empty((height, width), np.uint8)
+        return cls(lambda image: green_matte(image, out=buf))
+
+
+class TrackStage(Stage):
+    """Camera of every frame: :class:`arstream.track.Tracker`.
+
+    ``lag=0`` (live, causal): one estimate per call, for this frame.
+    ``lag>0`` (offline): a fixed-lag smoother; the stage holds the items
+    whose estimates are not final yet (at most ``lag`` plus a small margin),
+    keeping only what rendering needs (the frame and a copy of the grass
+    matte). Without a tracker module every frame is "lost".
+    """
+
+    name = "track"
+
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None):
+        self.analysis = analysis or Analysis(width, height)
+        if tracker is None and enabled:
+            cls = _optional("arstream.track", "Tracker")
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag) if cls is not None else None
+        self.tracker = tracker
+        self.available = tracker is not None
+        self.lag = int(lag)
+        self.max_held = self.lag + 8
+        self.held: collections.OrderedDict[int, Item] = collections.OrderedDict()
+
+    def process(self, item: Item) -> list[Item]:
+        if self.tracker is None:
+            item.estimate = CameraEstimate.lost(item.index, item.pts, reason="no tracker")
+            return [item]
+        image = self.analysis.image(item)  # (first: it may make the thumbnail)
+        estimates = self.tracker.process(item.index, item.pts, image, item.detections, thumbnail=item.thumbnail)
+        self.held[item.index] = item
+        out = self._release(estimates)
+        if item.index in self.held:  # waits for a later estimate: keep only what rendering needs
+            if item.matte is not None and not item.owned:
+                item.matte = item.matte.copy()  # the detector reuses its buffers
+            det = item.detections
+            if det is not None and getattr(det, "line_small", None) is not None:
+                item.lines = det.line_small if item.owned else det.line_small.copy()
+            item.detections = None
+            item.analysis = item.thumbnail = None
+            if item.frame.yuv is not None:
+                item.frame._image = None  # the BGR copy is rebuilt if anyone asks
+            if len(self.held) > self.max_held:
+                raise ArstreamError(f"the tracker has held {len(self.held)} frames without an estimate (lag {self.lag}); this is a bug in arstream.track")
+        return out
+
+    def _release(self, estimates: Iterable[CameraEstimate]) -> list[Item]:
+        out = []
+        for est in estimates:
+            it = self.held.pop(est.frame, None)
+            if it is None:
+                raise ArstreamError(f"the tracker returned an estimate for frame {est.frame}, which is not waiting; this is a bug in arstream.track")
+            if est.camera is not None and not self.analysis.full:
+                est = CameraEstimate(est.frame, est.pts, est.status, self.analysis.camera(est.camera), est.confidence, est.info)
+            it.estimate = est
+            out.append(it)
+        return out
+
+    def flush(self) -> list[Item]:
+        if self.tracker is None:
+            return []
+        out = self._release(self.tracker.flush())
+        for it in self.held.values():  # no estimate came: an honest "lost"
+            it.estimate = CameraEstimate.lost(it.index, it.pts, reason="no estimate at flush")
+            out.append(it)
+        self.held.clear()
+        out.sort(key=lambda it: it.index)
+        return out
+
+
+class CamerasInStage(Stage):
+    """Estimates read from a ``cameras.jsonl`` (instead of detect + track).
+
+    The file is read line by line alongside the video; frames without a record
+    are "lost". Used by :func:`render_clip` (``arstream render``).
+    """
+
+    name = "cameras"
+
+    def __init__(self, path):
+        import json
+
+        from geometry.camera import Camera
+
+        self._json, self._Camera = json, Camera
+        self.path = os.fspath(path)
+        if not os.path.exists(self.path):
+            raise InputError(f"cameras file not found: {self.path}")
+        self.f = open(self.path, encoding="utf-8")
+        self.line = 0
+        self.next_rec = self._read()
+
+    def _read(self):
+        for line in self.f:
+            self.line += 1
+            if line.strip():
+                try:
+                    return self._json.loads(line)
+                except ValueError as exc:
+                    raise InputError(f"{self.path}:{self.line}: not valid JSON ({exc})") from None
+        return None
+
+    def process(self, item: Item) -> list[Item]:
+        while self.next_rec is not None and int(self.next_rec.get("frame", -1)) < item.index:
+            self.next_rec = self._read()
+        rec = self.next_rec
+        if rec is not None and int(rec.get("frame", -1)) == item.index and rec.get("K") is not None:
+            try:
+                cam = self._Camera.from_dict(rec)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise InputError(f"{self.path}:{self.line}: bad camera record ({exc})") from None
+            status = rec.get("status", "ok")
+            item.estimate = CameraEstimate(item.index, item.pts, status if status != "lost" else "tracked", cam, float(rec.get("confidence", 1.0)))
+        else:
+            item.estimate = CameraEstimate.lost(item.index, item.pts)
+        return [item]
+
+    def close(self) -> None:
+        self.f.close()
+
+def load_scene_arg(scene):
+    """A :class:`render.Scene` from None (the demo scene), a path, or a Scene."""
+    import render
+
+    if scene is None:
+        return render.default_scene()
+    if isinstance(scene, render.Scene):
+        return scene
+    return render.load_scene(scene)
+
+
+class RenderStage(Stage):
+    """Draw the scene with the frame's camera and composite it, keyed by the grass matte.
+
+    Frames without a camera pass untouched. Raises :class:`ArstreamError`
+    naming the fix when no OpenGL context can be made.
+    """
+
+    name = "render"
+
+    def __init__(self, width: int, height: int, scene=None, *, renderer=None, fine_key: bool = True):
+        from render import GLContextError, Renderer
+        from render.kernels import warm_up
+
+        warm_up()  # (numba's set-up, about 0.3 s, before the run rather than in its first frame)
+        self.width, self.height = width, height
+        self.fine_key = fine_key
+        self._fine = None
+        self._key_i420: GrassKeyI420 | None = None
+        if renderer is None:
+            try:
+                renderer = Renderer(width, height, load_scene_arg(scene))
+            except GLContextError as exc:
+                raise ArstreamError(f"{exc} (or leave out -o to write only cameras.jsonl)") from None
+        self.renderer = renderer
+        self._matte = None
+
+    def _full_matte(self, matte):
+        """The grass matte for the renderer: as it is when it has the frame's size or
+        is smaller with its aspect ratio (the renderer stretches it on the GPU),
+        else scaled to the frame."""
+        if matte is None or matte.shape[:2] == (self.height, self.width) or self.renderer.stretches_matte(matte.shape):
+            return matte
+        if self._matte is None:
+            self._matte = np.empty((self.height, self.width), np.uint8)
+        return cv2.resize(matte, (self.width, self.height), dst=self._matte, interpolation=cv2.INTER_LINEAR)
+
+    def _key(self, item: Item):
+        """The renderer's grass matte for this frame. With ``fine_key`` and a
+        detector's pitch mask: a callable that keys the frame at full resolution
+        inside the overlay's rectangles only (render.keying.refine_matte: grass
+        colour or a detected line pixel, on the pitch; :class:`GrassKeyI420` on an
+        I420 frame), so that players and the ball pass in front of on-grass
+        graphics at pixel precision; else the matte as it is (the renderer
+        stretches a small one)."""
+        matte = item.matte
+        if matte is None or not self.fine_key or matte.shape[0] >= self.height:
+            return self._full_matte(matte)  # (a full-size matte is already fine)
+        f = item.frame
+        if self._fine is None:
+            self._fine = np.zeros((self.height, self.width), np.uint8)
+        lines = item.lines if item.lines is not None else getattr(item.detections, "line_small", None)
+        grow = max(1, int(round(3 * self.width / 1280)))  # about half a painted line's width
+        if f.yuv is not None:  # the same key, on the I420 planes (compiled)
+            if self._key_i420 is None:
+                self._key_i420 = GrassKeyI420()
+            return lambda rects: self._key_i420(self._fine, f.yuv, f.width, f.height, rects, matte, keep=lines, keep_grow=grow)
+        from render.keying import refine_matte
+
+        img = f.image
+        return lambda rects: refine_matte(self._fine, rects, lambda r: img[r[1] : r[3], r[0] : r[2]], matte, keep=lines, keep_grow=grow)
+
+    def process(self, item: Item) -> list[Item]:
+        cam = item.estimate.camera if item.estimate is not None else None
+        if cam is None:
+            return [item]
+        ov = self.renderer.render(cam, grass_matte=self._key(item))
+        if ov.empty:
+            return [item]
+        f = item.frame
+        if f.yuv is not None:
+            composite_i420(f.yuv, f.width, f.height, ov.bgra, ov.rects)
+            f._image = None  # the BGR copy (if any) shows the input, not the output
+        else:
+            self.renderer.compositor.composite(f.image, ov)
+        item.drawn = True
+        return [item]
+
+    def close(self) -> None:
+        self.renderer.release()
+
+class CamerasOutStage(Stage):
+    """Write each frame's estimate to ``cameras.jsonl`` (complete lines, flushed per frame)."""
+
+    name = "cameras"
+
+    def __init__(self, path):
+        self.writer = JsonlWriter(path)
+        self.path = self.writer.path
+
+    def process(self, item: Item) -> list[Item]:
+        self.writer.write(item.estimate.to_record())
+        return [item]
+
+    def close(self) -> None:
+        self.writer.close()

@@ -1,0 +1,105 @@
+"""What a pipeline run reports: its :class:`Summary`, and :class:`Interrupted`,
+raised with it when SIGINT or SIGTERM stopped the run (after the outputs were
+finalised; the handler is :class:`arstream.pipeline.runner.Pipeline`'s).
+"""
+
+from __future__ import annotations
+
+import signal
+from dataclasses import dataclass, field
+
+__all__ = ["Summary", "Interrupted"]
+
+@dataclass
+class Summary:
+    """What a run did.
+
+    Attributes
+    ----------
+    input : str
+    output, cameras : str or None, files written
+    frames : int, frames that went through every stage (= frames written)
+    tracked : int, frames with a camera (status "ok" or "tracked")
+    confidence : float, mean confidence over all frames (0 for lost frames)
+    seconds : float, wall time of the run (decode to trailer)
+    cpu_seconds : float, CPU time of the process over the run (all threads)
+    dropped : int, frames dropped to keep up in real time
+    errors : list of str, input damage (skipped packets, truncation)
+    interrupted : int or None, the signal that stopped the run
+    stage_ms : dict, mean milliseconds per frame of each stage
+    stage_cpu_ms : dict, mean CPU milliseconds per frame of each stage's own thread
+        (the encoder's and decoder's codec threads are not included)
+    missing : list of str, pipeline stages whose module does not exist yet
+    """
+
+    input: str = ""
+    output: str | None = None
+    cameras: str | None = None
+    frames: int = 0
+    tracked: int = 0
+    confidence: float = 0.0
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    dropped: int = 0
+    errors: list = field(default_factory=list)
+    interrupted: int | None = None
+    stage_ms: dict = field(default_factory=dict)
+    stage_cpu_ms: dict = field(default_factory=dict)
+    missing: list = field(default_factory=list)
+    width: int = 0
+    height: int = 0
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def share_tracked(self) -> float:
+        return self.tracked / self.frames if self.frames else 0.0
+
+    def line(self) -> str:
+        """One line for the terminal."""
+        s = (
+            f"{self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps), "
+            f"tracked {self.share_tracked:.1%}, mean confidence {self.confidence:.2f}"
+        )
+        if self.dropped:
+            s += f", dropped {self.dropped}"
+        outs = [p for p in (self.output, self.cameras) if p]
+        if outs:
+            s += " -> " + ", ".join(outs)
+        return s
+
+    def to_dict(self) -> dict:
+        return {
+            "input": self.input,
+            "output": self.output,
+            "cameras": self.cameras,
+            "frames": self.frames,
+            "tracked": self.tracked,
+            "share_tracked": round(self.share_tracked, 4),
+            "mean_confidence": round(self.confidence, 4),
+            "seconds": round(self.seconds, 3),
+            "cpu_seconds": round(self.cpu_seconds, 3),
+            "fps": round(self.fps, 2),
+            "dropped": self.dropped,
+            "errors": list(self.errors),
+            "interrupted": self.interrupted,
+            "stage_ms": {k: round(v, 3) for k, v in self.stage_ms.items()},
+            "stage_cpu_ms": {k: round(v, 3) for k, v in self.stage_cpu_ms.items()},
+            "missing": list(self.missing),
+            "size": [self.width, self.height],
+        }
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by SIGINT/SIGTERM after its outputs were finalised."""
+
+    def __init__(self, signum: int, summary: Summary):
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+        self.signum = signum
+        self.summary = summary
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + int(self.signum)
