@@ -92,6 +92,8 @@ class VideoSink:
         intra, or I and P only) is left to x264, and a B that x264's settings
         cannot take (the first frame, a run longer than the preset's B-frame
         limit, or a preset without B-frames) is made a P by x264 itself.
+    sample_aspect : Fraction, optional, the pixels' aspect ratio written into
+        the stream (width over height of one pixel; None: leave it unset, 1:1)
     """
 
     def __init__(
@@ -107,6 +109,7 @@ class VideoSink:
         audio_from=None,
         threads: int = 0,
         keep_b_frames: bool = True,
+        sample_aspect: Fraction | None = None,
     ):
         self.path = os.fspath(path)
         if width <= 0 or height <= 0:
@@ -132,6 +135,8 @@ class VideoSink:
         self.stream.time_base = self.time_base
         self.stream.codec_context.time_base = self.time_base
         self.stream.options = {"crf": str(crf), "preset": preset}
+        if sample_aspect is not None:
+            self.stream.codec_context.sample_aspect_ratio = Fraction(sample_aspect)  # e.g. 64:45, anamorphic 16:9 PAL
         self.stream.codec_context.thread_count = threads
         self.width, self.height = width, height
         self.keep_b_frames = bool(keep_b_frames)

@@ -24,16 +24,18 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
+from fractions import Fraction
+from statistics import NormalDist
 
 import cv2
 import numpy as np
 
-from arstream.presets import PRESETS, Preset
+from arstream.presets import ALL_PRESETS, PRESETS, REAL_PRESETS, Preset, RealPreset
 from geometry.camera import PTZ, Camera, camera_from_ptz, undistort_normalized
 from geometry.pitch import GOAL_HEIGHT, GOAL_WIDTH, Arc, PitchModel
 
-__all__ = ["Preset", "PRESETS", "SynthClip", "generate", "TruthFrame"]
+__all__ = ["Preset", "PRESETS", "REAL_PRESETS", "ALL_PRESETS", "Look", "SynthClip", "generate", "TruthFrame"]
 
 GENERATOR_VERSION = 1
 
@@ -60,6 +62,176 @@ class TruthFrame:
 
 
 # ---------------------------------------------------------------------------
+# the realistic family's look
+#: Paint colours (BGR) of other sports' lines: not soccer markings.
+OTHER_SPORT_COLOURS = {"yellow": (30, 200, 235), "orange": (20, 120, 240), "blue": (205, 120, 25)}
+
+
+@dataclass(frozen=True)
+class Look:
+    """What one clip of the realistic family (:data:`REAL_PRESETS`) shows, drawn
+    once from its seed within its :class:`~arstream.presets.RealPreset`'s ranges.
+    JSON-ready (``header.json`` keeps it under ``"look"``).
+
+    Attributes
+    ----------
+    pitch : [length, width] metres (the pitch the markings are painted on)
+    k1_wide : float, radial distortion at the preset's widest zoom (fades as 1/f)
+    grass_bgr : [b, g, r] the grass colour
+    stripes : "bands", "checks", "diagonal" or "none"; stripe_count bands along
+        the length, brightness 1 +- stripe_contrast
+    paint : float, grey level that fresh white paint is blended toward
+    wear : float in [0, 1], how worn the paint is (gaps, uneven brightness)
+    softness : float, the lens' blur (Gaussian sigma, display pixels)
+    shadow : None or {"point": [x, y], "normal": [nx, ny], "velocity": [vx, vy],
+        "strength": s}: the pitch (+4 m) where ``n . (p - point - velocity t) >= 0``
+        is darkened by the share ``s`` (hard edge; t in seconds)
+    other_lines : list of {"colour", "bgr", "width" (metres), "points" [[x, y], [x, y]]}:
+        straight painted lines of other sports, in the pitch frame
+    graphics : list of {"kind", "box" [x0, y0, x1, y1] stored pixels (x1, y1
+        exclusive), "display_box" (the same before the anamorphic squeeze),
+        "frames" [first, last] (inclusive), "opacity", "bgr"}: the on-screen
+        graphics (score, logo, caption, black box, watermark)
+    """
+
+    pitch: list
+    k1_wide: float
+    grass_bgr: list
+    stripes: str
+    stripe_count: int
+    stripe_contrast: float
+    paint: float
+    wear: float
+    softness: float
+    shadow: dict | None
+    other_lines: list = field(default_factory=list)
+    graphics: list = field(default_factory=list)
+
+    def shadow_polygon(self, t: float) -> np.ndarray | None:
+        """(N, 2) pitch polygon (metres) of the shadow at time ``t`` (s), or None."""
+        if self.shadow is None:
+            return None
+        L, W = self.pitch[0] / 2 + 4.0, self.pitch[1] / 2 + 4.0
+        rect = np.array([[-L, -W], [L, -W], [L, W], [-L, W]])
+        n = np.asarray(self.shadow["normal"], float)
+        p = np.asarray(self.shadow["point"], float) + t * np.asarray(self.shadow["velocity"], float)
+        poly = _clip_halfplane(rect, np.array([n[0], n[1], -n @ p]), 0.0)
+        return poly if len(poly) >= 3 else None
+
+
+def draw_look(rng, preset: RealPreset, display_size: tuple[int, int], stored_width: int, frames: int, pitch: PitchModel | None = None) -> Look:
+    """Draw a clip's :class:`Look` from ``rng`` within ``preset``'s ranges.
+
+    ``display_size`` (W, H) are the square pixels the frame is drawn in;
+    ``stored_width`` the width it is stored at (anamorphic squeeze);
+    ``pitch`` replaces the drawn pitch size (the draws are made all the same)."""
+    length = round(float(rng.uniform(*preset.pitch_length)) * 2) / 2
+    width = round(float(rng.uniform(*preset.pitch_width)) * 2) / 2
+    if pitch is not None:
+        length, width = float(pitch.length), float(pitch.width)
+    L, Wp = length / 2, width / 2
+    k1 = float(rng.uniform(*preset.k1_wide))
+    if preset.turf == "artificial":
+        grass = np.array([45.0, 165.0, 70.0]) * rng.uniform(0.9, 1.1, 3)
+        stripes, count, contrast = "none", 0, 0.0
+        paint, wear = float(rng.uniform(215, 240)), float(rng.uniform(0.05, 0.3))
+    else:
+        grass = np.array([52.0, 135.0, 78.0]) * rng.uniform(0.85, 1.12, 3)
+        stripes = str(rng.choice(["bands", "bands", "checks", "diagonal"]))
+        count = int(rng.integers(7, 12)) * 2
+        contrast = float(rng.uniform(0.03, 0.09))
+        paint, wear = float(rng.uniform(200, 240)), float(rng.uniform(0.1, 0.5))
+    softness = float(rng.uniform(0.5, 0.9))
+    shadow = None
+    if rng.random() < preset.shadow:
+        if rng.random() < 0.75:  # a roof edge along the touchlines
+            ang = rng.uniform(-0.4, 0.4)
+        else:  # a stand behind a goal
+            ang = np.pi / 2 + rng.uniform(-0.4, 0.4)
+        d = np.array([np.cos(ang), np.sin(ang)])
+        n = np.array([-d[1], d[0]]) * rng.choice([-1.0, 1.0])
+        point = np.array([rng.uniform(-0.3, 0.3) * L, rng.uniform(-0.5, 0.5) * Wp])
+        v = n * (rng.uniform(0.05, 0.4) if rng.random() < 0.5 else 0.0)
+        shadow = {"point": (np.round(point, 3) + 0.0).tolist(), "normal": (np.round(n, 6) + 0.0).tolist(), "velocity": (np.round(v, 4) + 0.0).tolist(), "strength": round(float(rng.uniform(0.3, 0.55)), 3)}
+    other = _other_sport_lines(rng, L, Wp) if rng.random() < preset.other_lines else []
+    graphics = _draw_graphics_layout(rng, preset.graphics, display_size, stored_width, frames)
+    return Look(
+        pitch=[length, width],
+        k1_wide=round(k1, 5),
+        grass_bgr=np.round(grass, 1).tolist(),
+        stripes=stripes,
+        stripe_count=count,
+        stripe_contrast=round(contrast, 4),
+        paint=round(paint, 1),
+        wear=round(wear, 3),
+        softness=round(softness, 3),
+        shadow=shadow,
+        other_lines=other,
+        graphics=graphics,
+    )
+
+
+def _other_sport_lines(rng, L: float, W: float) -> list[dict]:
+    """Yellow lines across the pitch (parallel to the goal lines) with orange
+    dashes across them, and sometimes a blue court: at least 1.5 m from the
+    soccer markings' lines that run the same way."""
+    soccer_x = np.array([0.0, L - 16.5, L - 5.5, L, -(L - 16.5), -(L - 5.5), -L])
+    xs = []
+    for x in np.sort(rng.uniform(-L + 3, L - 3, int(rng.integers(3, 7)))):
+        if np.min(np.abs(soccer_x - x)) > 1.5 and all(abs(x - x0) > 4.0 for x0 in xs):
+            xs.append(float(x))
+    out = []
+    w = float(rng.uniform(0.08, 0.12))
+    for x in xs:
+        out.append({"colour": "yellow", "bgr": list(OTHER_SPORT_COLOURS["yellow"]), "width": w, "points": [[round(x, 3), -W], [round(x, 3), W]]})
+        for y in (-W + 5.0, -W / 3, W / 3, W - 5.0):
+            out.append({"colour": "orange", "bgr": list(OTHER_SPORT_COLOURS["orange"]), "width": w, "points": [[round(x - 2.5, 3), round(y, 3)], [round(x + 2.5, 3), round(y, 3)]]})
+    if rng.random() < 0.5:  # a court: two sides along X, two across
+        cx, hl, hw = rng.uniform(-L / 3, L / 3), rng.uniform(12, 20), rng.uniform(7, 10)
+        c = [[cx - hl, -hw], [cx + hl, -hw], [cx + hl, hw], [cx - hl, hw]]
+        for a, b in zip(c, c[1:] + c[:1]):
+            out.append({"colour": "blue", "bgr": list(OTHER_SPORT_COLOURS["blue"]), "width": w, "points": np.round([a, b], 3).tolist()})
+    return out
+
+
+def _draw_graphics_layout(rng, kind: str, display_size: tuple[int, int], stored_width: int, frames: int) -> list[dict]:
+    """Where and when the on-screen graphics sit (see :attr:`Look.graphics`).
+
+    Boxes are laid out in display pixels and recorded in stored pixels."""
+    Wd, H = display_size
+    sx = stored_width / Wd
+    s = H / 720.0
+    out = []
+
+    def word(n):
+        return "".join(chr(65 + int(c)) for c in rng.integers(0, 26, n))
+
+    def add(kind_, x0, y0, w, h, first, last, opacity, bgr, text):
+        x0, y0, w, h = int(round(x0)), int(round(y0)), int(round(w)), int(round(h))
+        # every stored pixel the graphic touches (the squeeze's filter reaches one pixel further)
+        pad = 0 if sx == 1 else 1
+        box = [int(math.floor((x0 + 0.5) * sx - 0.5)) - pad, y0, int(math.ceil((x0 + w + 0.5) * sx - 0.5)) + pad, y0 + h]
+        out.append({"kind": kind_, "box": [max(box[0], 0), max(box[1], 0), min(box[2], stored_width), min(box[3], H)], "display_box": [x0, y0, x0 + w, y0 + h], "frames": [int(first), int(last)], "opacity": round(float(opacity), 3), "bgr": [int(v) for v in bgr], "text": text})
+
+    m = 28 * s
+    if kind == "tv":
+        bgr = rng.integers(20, 140, 3)
+        w = rng.uniform(240, 330) * s * (Wd / H) / (16 / 9)
+        x0 = m if rng.random() < 0.7 else (Wd - w) / 2
+        add("score", x0, m, w, 34 * s, 0, frames - 1, rng.uniform(0.85, 1.0), bgr, f"{word(3)}  {rng.integers(0, 4)}-{rng.integers(0, 4)}  {word(3)}")
+        add("logo", Wd - m - 120 * s, m, 120 * s, 30 * s, 0, frames - 1, rng.uniform(0.45, 0.8), (255, 255, 255), f"{word(3)} TV")
+        a = int(rng.integers(0, max(frames // 3, 1)))
+        add("caption", m * 2, H - m * 2 - 56 * s, rng.uniform(260, 380) * s, 56 * s, a, min(a + max(frames // 2, 1), frames - 1), 1.0, rng.integers(20, 200, 3), f"{rng.integers(2, 40)} {word(1)}. {word(6)}|{rng.integers(2, 40)} {word(1)}. {word(5)}")
+        if rng.random() < 0.4:
+            add("black box", Wd - m - 150 * s, H - m - 44 * s, 150 * s, 44 * s, 0, frames - 1, 1.0, (0, 0, 0), "LIVE")
+    else:
+        add("logo", m, m, 150 * s, 30 * s, 0, frames - 1, rng.uniform(0.5, 0.8), (255, 255, 255), f"{word(5)}.TV")
+        add("black box", Wd - m - rng.uniform(140, 220) * s, m, 180 * s, 40 * s, 0, frames - 1, 1.0, (0, 0, 0), f"{word(3)} 0:{rng.integers(0, 3)} {word(3)}")
+        add("watermark", Wd / 2 - 150 * s, H - m - 80 * s, 300 * s, 26 * s, 0, frames - 1, rng.uniform(0.25, 0.45), (255, 255, 255), f"WWW.{word(6)}.COM")
+    return out
+
+
+# ---------------------------------------------------------------------------
 # smooth random signals
 def _smooth_signal(rng, n: int, fps: float, lo: float, hi: float, freqs=(0.03, 0.12), k: int = 3) -> np.ndarray:
     """A smooth random signal in [lo, hi] over n frames (sum of k sinusoids)."""
@@ -79,17 +251,24 @@ def _smoothstep(x):
 
 # ---------------------------------------------------------------------------
 # textures
-def _grass_texture(rng, pitch: PitchModel, ppm: float, extent: tuple[float, float], white_kit: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Top-down grass BGR texture and a line-wear map over X in [-ex, ex], Y in [-ey, ey]."""
+def _grass_texture(rng, pitch: PitchModel, ppm: float, extent: tuple[float, float], white_kit: bool, look: "Look | None" = None) -> tuple[np.ndarray, np.ndarray]:
+    """Top-down grass BGR texture and a line-wear map over X in [-ex, ex], Y in [-ey, ey].
+
+    ``look`` (the realistic family) sets the grass colour, the mowing pattern
+    and the paint's wear (gaps and uneven brightness along the lines)."""
     ex, ey = extent
     w, h = int(2 * ex * ppm) + 1, int(2 * ey * ppm) + 1
     X = (np.arange(w) / ppm - ex)[None, :]
     Y = (np.arange(h) / ppm - ey)[:, None]
     base = np.array([38.0, 128.0, 62.0]) * rng.uniform(0.85, 1.1, 3)
-    n_stripes = 18 if pitch.length >= 100 else 16
-    stripe_w = pitch.length / n_stripes
-    stripe = np.where((np.floor((X + pitch.length / 2) / stripe_w) % 2) == 0, 1.07, 0.93)
-    stripe = np.broadcast_to(stripe, (h, w))
+    if look is None:
+        n_stripes = 18 if pitch.length >= 100 else 16
+        stripe_w = pitch.length / n_stripes
+        stripe = np.where((np.floor((X + pitch.length / 2) / stripe_w) % 2) == 0, 1.07, 0.93)
+        stripe = np.broadcast_to(stripe, (h, w))
+    else:
+        base = np.array(look.grass_bgr, float)
+        stripe = _mowing_pattern(look, pitch, X, Y, ppm)
     light = cv2.GaussianBlur(rng.normal(0, 1, (h, w)).astype(np.float32), (0, 0), 12 * ppm / 8)
     light = 1.0 + 0.06 * light / (np.abs(light).max() + 1e-6)
     fine = 1.0 + 0.05 * rng.normal(0, 1, (h, w)).astype(np.float32)
@@ -98,7 +277,45 @@ def _grass_texture(rng, pitch: PitchModel, ppm: float, extent: tuple[float, floa
     tex = np.clip(base[None, None, :] * shade[..., None], 0, 255).astype(np.uint8)
     wear = cv2.GaussianBlur(rng.normal(0, 1, (h, w)).astype(np.float32), (0, 0), 1.5)
     wear = np.clip(0.88 + 0.5 * wear / (np.abs(wear).max() + 1e-6), 0.55, 1.0)
+    if look is not None:
+        wear = wear * _worn_paint(rng, (h, w), ppm, look.wear)
     return tex, (wear * 255).astype(np.uint8)
+
+
+def _mowing_pattern(look: "Look", pitch: PitchModel, X: np.ndarray, Y: np.ndarray, ppm: float) -> np.ndarray:
+    """Brightness factor (h, w) of the mowing pattern, about 1 +- ``look.stripe_contrast``.
+
+    ``X`` (1, w) and ``Y`` (h, 1) are the texels' pitch coordinates (metres).
+    Patterns: "bands" across the pitch (the usual), "checks" (bands both
+    ways), "diagonal" (bands at 45 degrees), "none" (artificial turf)."""
+    if look.stripes == "none":
+        return np.ones((Y.shape[0], X.shape[1]), np.float32)
+    sw = pitch.length / look.stripe_count
+    bx = np.floor((X + pitch.length / 2) / sw)
+    if look.stripes == "bands":
+        par = bx + 0 * Y
+    elif look.stripes == "checks":
+        par = bx + np.floor((Y + pitch.width / 2) / (pitch.width / max(round(look.stripe_count * pitch.width / pitch.length), 2)))
+    else:  # diagonal
+        par = np.floor((X + Y) / (sw * math.sqrt(2.0)))
+    s = np.where(par % 2 == 0, 1.0, -1.0).astype(np.float32)
+    s = cv2.GaussianBlur(s, (0, 0), 0.25 * ppm)  # a mown edge is soft (about 0.25 m)
+    return 1.0 + look.stripe_contrast * s
+
+
+def _worn_paint(rng, shape: tuple[int, int], ppm: float, wear: float) -> np.ndarray:
+    """Paint factor (h, w) in [0, 1]: uneven brightness (metre-scale) and gaps.
+
+    ``wear`` in [0, 1] sets how worn: about ``0.25 * wear`` of the paint is
+    missing in gaps 0.3-1.5 m long, and the rest varies by ``+-0.3 * wear``."""
+    slow = cv2.GaussianBlur(rng.normal(0, 1, shape).astype(np.float32), (0, 0), 1.0 * ppm)
+    slow /= np.abs(slow).max() + 1e-6
+    gaps = cv2.GaussianBlur(rng.normal(0, 1, shape).astype(np.float32), (0, 0), 0.4 * ppm)
+    gaps /= gaps.std() + 1e-6
+    # the share of gaps: P(z > thr) = 0.25 * wear for a normal z
+    thr = NormalDist().inv_cdf(1.0 - 0.25 * wear) if wear > 0 else np.inf
+    gap = np.clip((gaps - thr) / 0.3, 0.0, 1.0)
+    return np.clip((1.0 - 0.3 * wear) + 0.3 * wear * slow, 0.0, 1.0) * (1.0 - gap)
 
 
 def _crowd_texture(rng, w: int, h: int, blob: float) -> np.ndarray:
@@ -150,6 +367,18 @@ class _Player:
     height: float
 
 
+def _straight_strip(a: np.ndarray, b: np.ndarray, hw: float) -> tuple[np.ndarray, np.ndarray, bool]:
+    """A straight painted line from ``a`` to ``b`` (pitch metres, (2,)) of half
+    width ``hw``, as a strip (left edge (N, 2), right edge (N, 2), closed=False).
+    It is extended by half a width at both ends, so that corners are closed."""
+    length = float(np.hypot(b[0] - a[0], b[1] - a[1]))  # as Segment.length
+    n = max(int(np.ceil(length / 2.0)), 1) + 1
+    u = (b - a) / length
+    pts = np.linspace(a - hw * u, b + hw * u, n)
+    nrm = np.array([-u[1], u[0]])
+    return pts + hw * nrm, pts - hw * nrm, False
+
+
 def _repeat_columns(tex: np.ndarray, width: int) -> np.ndarray:
     """``tex`` (h, w, 3) repeated side by side to ``width`` columns (cropped)."""
     reps = -(-width // tex.shape[1])
@@ -175,34 +404,63 @@ class SynthClip:
 
     Parameters
     ----------
-    preset : str, one of :data:`PRESETS`
+    preset : str, one of :data:`ALL_PRESETS` (the clean :data:`PRESETS` or the
+        realistic :data:`REAL_PRESETS`)
     seed : int
     frames : int, number of frames (>= 1)
-    size : (width, height) pixels (even numbers)
+    size : (width, height) stored pixels (even numbers); default the
+        preset's (``RealPreset.size``), else 1280 x 720
     fps : float
-    pitch : PitchModel, default 105 x 68 m
+    pitch : PitchModel; default 105 x 68 m, or for the realistic family a size
+        drawn from the seed (:attr:`look`)
+    pixel_aspect : (p, q) or Fraction, the stored pixels' aspect ratio (width
+        over height of one pixel); default the preset's, else 1. Frames are
+        drawn with square pixels at ``round(width * p / q)`` x height and
+        squeezed to ``size``; the cameras (``K[1, 1] / K[0, 0] = p / q``) are
+        the stored frames'.
 
     Use :meth:`truth` for the ground truth of frame ``i`` and :meth:`render`
-    for its image (BGR uint8).
+    for its image (BGR uint8, ``size``). :attr:`look` is the realistic
+    family's :class:`Look` (None for the clean presets). ``width`` and
+    ``height`` are the square-pixel size frames are drawn at (``size`` when
+    the pixels are square).
     """
 
-    def __init__(self, preset: str = "wide", seed: int = 0, frames: int = 250, size=(1280, 720), fps: float = 25.0, pitch: PitchModel | None = None):
-        if preset not in PRESETS:
-            raise ValueError(f"unknown preset {preset!r}; choose from {', '.join(PRESETS)}")
+    def __init__(self, preset: str = "wide", seed: int = 0, frames: int = 250, size=None, fps: float = 25.0, pitch: PitchModel | None = None, pixel_aspect=None):
+        if preset not in ALL_PRESETS:
+            raise ValueError(f"unknown preset {preset!r}; choose from {', '.join(ALL_PRESETS)}")
         if frames < 1:
             raise ValueError(f"frames must be >= 1, got {frames}")
+        real = preset in REAL_PRESETS
+        size = size if size is not None else (REAL_PRESETS[preset].size if real else (1280, 720))
         w, h = int(size[0]), int(size[1])
         if w < 64 or h < 64 or w % 2 or h % 2:
             raise ValueError(f"size must be even and at least 64x64, got {w}x{h}")
         if not (1.0 <= fps <= 120.0):
             raise ValueError(f"fps must be in [1, 120], got {fps}")
-        self.preset = PRESETS[preset]
+        if pixel_aspect is None:
+            pixel_aspect = REAL_PRESETS[preset].pixel_aspect if real else (1, 1)
+        pa = Fraction(*pixel_aspect) if isinstance(pixel_aspect, (tuple, list)) else Fraction(pixel_aspect).limit_denominator(1000)
+        if not (Fraction(1, 2) <= pa <= 2):
+            raise ValueError(f"pixel aspect must be in [1/2, 2], got {pa}")
+        self.preset = ALL_PRESETS[preset]
         self.seed = int(seed)
         self.n = int(frames)
-        self.width, self.height = w, h
+        self.size = (w, h)
+        self.pixel_aspect = pa
+        # drawn with square pixels, then squeezed: x_stored = (x + 0.5) * sx - 0.5
+        self.width, self.height = (w, h) if pa == 1 else (2 * round(w * pa / 2), h)
+        sx = w / self.width
+        self._S_stored_from_drawn = None if pa == 1 else np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
         self.fps = float(fps)
-        self.pitch = pitch or PitchModel()
-        rng = np.random.default_rng([self.seed, list(PRESETS).index(preset)])
+        if real:
+            rng = np.random.default_rng([self.seed, 100 + list(REAL_PRESETS).index(preset)])
+            self.look = draw_look(np.random.default_rng([self.seed, 200 + list(REAL_PRESETS).index(preset)]), self.preset, (self.width, h), w, self.n, pitch=pitch)
+            self.pitch = pitch or PitchModel(*self.look.pitch)
+        else:
+            rng = np.random.default_rng([self.seed, list(PRESETS).index(preset)])
+            self.look = None
+            self.pitch = pitch or PitchModel()
         self._rng_seed = rng.integers(0, 2**31)
         self._setup_world(rng)
         self._setup_camera(rng)
@@ -215,7 +473,8 @@ class SynthClip:
         L, W = p.length / 2, p.width / 2
         self._grass_ppm = 8.0
         self._grass_extent = (L + 10.0, W + 10.0)
-        self._grass, self._wear = _grass_texture(rng, p, self._grass_ppm, self._grass_extent, self.preset.white_kit)
+        self._grass, self._wear = _grass_texture(rng, p, self._grass_ppm, self._grass_extent, self.preset.white_kit, self.look)
+        self._paint = 238.0 if self.look is None else self.look.paint
         ex, ey = self._grass_extent
         s = 1.0 / self._grass_ppm
         self._T_pitch_from_grass = np.array([[s, 0, -ex], [0, s, -ey], [0, 0, 1.0]])
@@ -263,13 +522,7 @@ class SynthClip:
                 d /= np.linalg.norm(d, axis=1, keepdims=True)
                 self._strips.append((pts + hw * d, pts - hw * d, m.is_full_circle))
             else:
-                a, b = np.asarray(m.start), np.asarray(m.end)
-                n = max(int(np.ceil(m.length / 2.0)), 1) + 1
-                # extend straight lines by half a width so corners are closed
-                u = (b - a) / m.length
-                pts = np.linspace(a - hw * u, b + hw * u, n)
-                nrm = np.array([-u[1], u[0]])
-                self._strips.append((pts + hw * nrm, pts - hw * nrm, False))
+                self._strips.append(_straight_strip(np.asarray(m.start), np.asarray(m.end), hw))
         for name, (x, y) in p.spots.items():
             th = np.linspace(0, 2 * np.pi, 16, endpoint=False)
             r = 0.11
@@ -282,11 +535,19 @@ class SynthClip:
         else:
             self._shadow_poly = None
         self._sun = np.array([rng.uniform(-0.6, 0.6), rng.uniform(0.3, 0.8)])
+        # other sports' lines (realistic family): (BGR, [strip]) per line
+        self._other_strips = []
+        for line in self.look.other_lines if self.look is not None else ():
+            a, b = np.asarray(line["points"], float)
+            self._other_strips.append((tuple(line["bgr"]), [_straight_strip(a, b, line["width"] / 2)]))
 
     def _setup_camera(self, rng) -> None:
         pr = self.preset
         n, fps, W = self.n, self.fps, self.width
-        self.camera_center = np.array([rng.uniform(-6, 6), -self.pitch.width / 2 - rng.uniform(15, 45), rng.uniform(10, 25)])
+        if isinstance(pr, RealPreset):
+            self.camera_center = np.array([rng.uniform(*pr.camera_x), -self.pitch.width / 2 - rng.uniform(*pr.camera_back), rng.uniform(*pr.camera_height)])
+        else:
+            self.camera_center = np.array([rng.uniform(-6, 6), -self.pitch.width / 2 - rng.uniform(15, 45), rng.uniform(10, 25)])
         tx = _smooth_signal(rng, n, fps, *pr.target_x)
         ty = _smooth_signal(rng, n, fps, *pr.target_y, freqs=(0.02, 0.08))
         # fast pans: smooth jumps of the target along X
@@ -349,20 +610,28 @@ class SynthClip:
 
     # --- cameras -------------------------------------------------------------------
     def camera(self, i: int) -> Camera | None:
-        """True camera of frame ``i`` (None during a crowd cut-away)."""
+        """True camera of frame ``i`` (None during a crowd cut-away), in the
+        stored frame's pixels (``size``, ``pixel_aspect``), distortion included."""
         if self._cut[i]:
             return None
-        return self._camera_at(i)
+        cam = self._camera_at(i)
+        if self._S_stored_from_drawn is None:
+            return cam
+        return Camera(K=self._S_stored_from_drawn @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
 
     def _camera_at(self, i: int) -> Camera:
+        """The camera frame ``i`` is drawn with (square pixels, ``width`` x ``height``)."""
         c = self.camera_center
         tgt = np.array([self._target[i, 0], self._target[i, 1], 0.0])
         d = tgt - c
         pan = math.atan2(d[0], d[1])
         tilt = math.atan2(-d[2], math.hypot(d[0], d[1])) + self._tilt_bias
         f = float(self._f[i])
-        k1 = self.preset.k1 * (self.width / f)  # distortion fades as the lens zooms in
-        dist = (k1,) if self.preset.k1 else ()
+        if self.look is not None:
+            dist = (self.look.k1_wide * (self.preset.f_range[0] * self.width / f),)
+        else:
+            k1 = self.preset.k1 * (self.width / f)  # distortion fades as the lens zooms in
+            dist = (k1,) if self.preset.k1 else ()
         return camera_from_ptz(c, PTZ(pan, tilt, float(self._roll[i]), f), self._pp, dist=dist)
 
     def truth(self, i: int) -> TruthFrame:
@@ -382,7 +651,7 @@ class SynthClip:
         front = cam.in_front(X)
         px = cam.project(X)
         with np.errstate(invalid="ignore"):
-            return front & (px[:, 0] >= 0) & (px[:, 0] <= self.width - 1) & (px[:, 1] >= 0) & (px[:, 1] <= self.height - 1)
+            return front & (px[:, 0] >= 0) & (px[:, 0] <= self.size[0] - 1) & (px[:, 1] >= 0) & (px[:, 1] <= self.size[1] - 1)
 
     # --- rendering -----------------------------------------------------------------
     def render(self, i: int) -> np.ndarray:
@@ -393,6 +662,9 @@ class SynthClip:
             cam = self._camera_at(i)
             img = self._render_view(i, cam)
         self._post(i, img)
+        if self._S_stored_from_drawn is not None:
+            # the anamorphic squeeze: pixel centres map as x_stored = (x + 0.5) * sx - 0.5
+            img = cv2.resize(img, self.size, interpolation=cv2.INTER_AREA)
         return img
 
     def _render_view(self, i: int, cam: Camera) -> np.ndarray:
@@ -441,11 +713,17 @@ class SynthClip:
         self._fill_sky(img, cam)
         for plane in self._stands + self._boards:
             self._draw_plane(img, cam, plane)
+        for bgr, strips in self._other_strips:
+            self._paint_other_line(img, cam, strips, bgr, M, W, H)
         self._draw_lines(img, cam, M, W, H)
         self._draw_goals(img, cam)
         self._draw_players(i, img, cam, W, H)
         if self._shadow_poly is not None:
             self._darken_pitch_poly(img, cam, self._shadow_poly, 0.42, W, H)
+        if self.look is not None and self.look.shadow is not None:
+            poly = self.look.shadow_polygon(i / self.fps)
+            if poly is not None:
+                self._darken_pitch_poly(img, cam, poly, self.look.shadow["strength"], W, H, blur=0.7, clip=True)
         return img
 
     def _fill_sky(self, img, cam: Camera) -> None:
@@ -461,7 +739,16 @@ class SynthClip:
         H, W = img.shape[:2]
         C = plane.corners()
         if np.any(cam.to_camera(C)[:, 2] < 1.0):
-            return
+            if self.look is None:
+                return
+            # (realistic family) keep the part at least 1 m in front of the camera:
+            # depth is linear in the texel coordinates (u, v)
+            h, w = plane.tex.shape[:2]
+            r3 = cam.R[2]
+            uv = _clip_halfplane(np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], float), np.array([r3 @ plane.du, r3 @ plane.dv, r3 @ plane.origin + cam.t[2]]), 1.0)
+            if len(uv) < 3:
+                return
+            C = plane.origin + uv[:, :1] * plane.du + uv[:, 1:] * plane.dv
         q = cam.project(C) if not cam.dist else _project_pinhole(cam, C)
         x0, y0 = np.floor(q.min(axis=0)).astype(int)
         x1, y1 = np.ceil(q.max(axis=0)).astype(int) + 1
@@ -480,8 +767,33 @@ class SynthClip:
     def _draw_lines(self, img, cam: Camera, M_img_from_grass, W, H) -> None:
         mask = self._line_mask if mask_fits(self._line_mask, W, H) else np.zeros((H, W), np.uint8)
         mask[:] = 0
+        self._fill_strips(mask, cam, self._strips)
+        # worn paint: the wear map is attached to the pitch
+        wear = cv2.warpPerspective(self._wear, M_img_from_grass, (W, H), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        alpha = cv2.multiply(mask, wear, scale=1 / 255.0)
+        a3 = cv2.merge([alpha, alpha, alpha])
+        inv = cv2.subtract(np.full_like(img, self._paint), img)
+        cv2.add(img, cv2.multiply(inv, a3, scale=1 / 255.0), dst=img)
+
+    def _paint_other_line(self, img, cam: Camera, strips, bgr, M_img_from_grass, W, H) -> None:
+        """Blend an other sport's coloured line (``strips``) into ``img``, worn like the white paint."""
+        mask = self._line_mask if mask_fits(self._line_mask, W, H) else np.zeros((H, W), np.uint8)
+        mask[:] = 0
+        self._fill_strips(mask, cam, strips)
+        ys, xs = np.nonzero(mask)
+        if len(ys) == 0:
+            return
+        y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+        T = np.array([[1.0, 0, -x0], [0, 1.0, -y0], [0, 0, 1.0]])
+        wear = cv2.warpPerspective(self._wear, T @ M_img_from_grass, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        a = (mask[y0:y1, x0:x1].astype(np.float32) * wear.astype(np.float32) / (255.0 * 255.0))[..., None]
+        roi = img[y0:y1, x0:x1]
+        roi[:] = np.clip(roi * (1 - a) + np.array(bgr, np.float32) * a + 0.5, 0, 255).astype(np.uint8)
+
+    def _fill_strips(self, mask: np.ndarray, cam: Camera, strips) -> None:
+        """Fill the projected strips (spots, closed rings, open strips) into ``mask`` (255, anti-aliased)."""
         polys = []
-        for left, right, closed in self._strips:
+        for left, right, closed in strips:
             if right is None:  # a spot: filled disc
                 polys_spot = self._project_runs(cam, left, closed=True)
                 for p in polys_spot:
@@ -499,12 +811,6 @@ class SynthClip:
             polys.extend(self._strip_polys(cam, left, right))
         if polys:
             cv2.fillPoly(mask, polys, 255, cv2.LINE_AA, shift=4)
-        # worn paint: the wear map is attached to the pitch
-        wear = cv2.warpPerspective(self._wear, M_img_from_grass, (W, H), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        alpha = cv2.multiply(mask, wear, scale=1 / 255.0)
-        a3 = cv2.merge([alpha, alpha, alpha])
-        inv = cv2.subtract(np.full_like(img, 238), img)
-        cv2.add(img, cv2.multiply(inv, a3, scale=1 / 255.0), dst=img)
 
     def _project_runs(self, cam: Camera, XY: np.ndarray, closed: bool) -> list[np.ndarray]:
         X = np.column_stack([XY, np.zeros(len(XY))])
@@ -619,16 +925,24 @@ class SynthClip:
             r = 0.11 * cam.focal / cam.to_camera(ballX)[0, 2]
             cv2.circle(img, _pt(q), max(int(round(r * 16)), 8), (245, 245, 245), -1, cv2.LINE_AA, shift=4)
 
-    def _darken_pitch_poly(self, img, cam: Camera, poly_xy: np.ndarray, strength: float, W: int, H: int) -> None:
+    def _darken_pitch_poly(self, img, cam: Camera, poly_xy: np.ndarray, strength: float, W: int, H: int, blur: float = 2.0, clip: bool = False) -> None:
+        """Darken the image of a convex pitch polygon (N, 2) by the share ``strength``,
+        its edge blurred by ``blur`` pixels. ``clip``: cut the polygon where it
+        passes within 0.5 m of the camera's image plane (else it is skipped)."""
+        if clip:
+            # depth of a pitch point (X, Y, 0): R[2, 0] X + R[2, 1] Y + t[2]
+            poly_xy = _clip_halfplane(poly_xy, np.array([cam.R[2, 0], cam.R[2, 1], cam.t[2]]), 0.5)
+            if len(poly_xy) < 3:
+                return
         X = np.column_stack([poly_xy, np.zeros(len(poly_xy))])
-        if np.any(cam.to_camera(X)[:, 2] < 0.5):
+        if np.any(cam.to_camera(X)[:, 2] < (0.5 - 1e-9 if clip else 0.5)):
             # clip against a plane in front of the camera on the pitch: keep it simple, skip
             return
         q = _project_pinhole(cam, X)
         smask = self._shadow_mask if mask_fits(self._shadow_mask, W, H) else np.zeros((H, W), np.uint8)
         smask[:] = 0
         cv2.fillPoly(smask, [np.round(q * 16).astype(np.int32)], int(255 * strength), cv2.LINE_AA, shift=4)
-        smask[:] = cv2.GaussianBlur(smask, (0, 0), 2.0)
+        smask[:] = cv2.GaussianBlur(smask, (0, 0), blur)
         _darken(img, smask)
 
     def _render_closeup(self, i: int) -> np.ndarray:
@@ -655,10 +969,17 @@ class SynthClip:
                         kern[yy, xx] += 1
                 kern /= kern.sum()
                 cv2.filter2D(img, -1, kern, dst=img)
+        if self.look is not None:
+            cv2.GaussianBlur(img, (0, 0), self.look.softness, dst=img)  # the lens is not perfectly sharp
         pos, neg = self._noise[(i * 7 + self.seed) % len(self._noise)]
         cv2.add(img, pos, dst=img)
         cv2.subtract(img, neg, dst=img)
-        self._score_graphic(i, img)
+        if self.look is None:
+            self._score_graphic(i, img)
+        else:
+            for g in self.look.graphics:
+                if g["frames"][0] <= i <= g["frames"][1]:
+                    _draw_graphic(img, g, i / self.fps)
 
     def _image_motion(self, i: int) -> np.ndarray:
         """Pixel motion per frame of the image centre (central difference)."""
@@ -681,6 +1002,51 @@ class SynthClip:
         text = f"ARS  1 - 0  FCV   {int(secs // 60):02d}:{int(secs % 60):02d}"
         cv2.putText(img, text, (x0 + int(10 * s), y0 + int(24 * s)), cv2.FONT_HERSHEY_SIMPLEX, 0.62 * s, (255, 255, 255), max(int(1.5 * s), 1), cv2.LINE_AA)
         cv2.rectangle(img, (x0, y0 + h - max(int(3 * s), 1)), (x0 + w, y0 + h), (40, 200, 240), -1)
+
+
+# ---------------------------------------------------------------------------
+def _fit_text(img: np.ndarray, text: str, box, colour, fill: float = 0.62, thick: float = 0.09) -> None:
+    """Write ``text`` centred-left in ``box`` (x0, y0, x1, y1), its height ``fill`` of the box's."""
+    x0, y0, x1, y1 = box
+    font = cv2.FONT_HERSHEY_DUPLEX
+    (tw, th), _ = cv2.getTextSize(text, font, 1.0, 1)
+    scale = min(fill * (y1 - y0) / max(th, 1), 0.92 * (x1 - x0) / max(tw, 1))
+    t = max(int(round(thick * scale * th)), 1)
+    cv2.putText(img, text, (x0 + int(0.04 * (x1 - x0)), int(round((y0 + y1) / 2 + scale * th / 2))), font, scale, colour, t, cv2.LINE_AA)
+
+
+def _draw_graphic(img: np.ndarray, g: dict, t: float) -> None:
+    """Draw one on-screen graphic (:attr:`Look.graphics` item) at time ``t`` (s) into ``img`` (display pixels)."""
+    H, W = img.shape[:2]
+    x0, y0, x1, y1 = g["display_box"]
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+    if x1 - x0 < 4 or y1 - y0 < 4:
+        return
+    roi = img[y0:y1, x0:x1]
+    over = roi.copy()
+    w, h = x1 - x0, y1 - y0
+    kind, bgr, text = g["kind"], tuple(g["bgr"]), g["text"]
+    if kind == "score":
+        over[:] = bgr
+        over[:, : int(0.12 * w)] = (235, 235, 235)
+        clock = 60 * 23 + 17 + t
+        _fit_text(over, f"{text}  {int(clock // 60):02d}:{int(clock % 60):02d}", (int(0.14 * w), 0, w, h), (255, 255, 255))
+    elif kind == "caption":
+        over[: h // 2] = bgr
+        over[h // 2 :] = (240, 240, 240)
+        top, bottom = text.split("|")
+        _fit_text(over, top, (0, 0, w, h // 2), (255, 255, 255))
+        _fit_text(over, bottom, (0, h // 2, w, h), (60, 60, 60))
+    elif kind == "black box":
+        over[:] = 0
+        _fit_text(over, text, (0, 0, w, h), (255, 255, 255), fill=0.5)
+    else:  # logo, watermark: white letters over the picture
+        _fit_text(over, text, (0, 0, w, h), (255, 255, 255), fill=0.75, thick=0.14)
+    o = float(g["opacity"])
+    if o >= 1.0:
+        roi[:] = over
+    else:
+        cv2.addWeighted(over, o, roi, 1.0 - o, 0.0, dst=roi)
 
 
 # ---------------------------------------------------------------------------
@@ -745,8 +1111,15 @@ def _clip_halfplane(poly: np.ndarray, n: np.ndarray, offset: float) -> np.ndarra
 
 
 # ---------------------------------------------------------------------------
-def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250, size=(1280, 720), fps: float = 25.0, crf: int = 23, progress=None) -> dict:
+def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250, size=None, fps: float = 25.0, crf: int | None = None, pixel_aspect=None, progress=None) -> dict:
     """Write ``clip.mp4``, ``truth.jsonl`` and ``header.json`` into ``out_dir``.
+
+    ``size``, ``crf`` and ``pixel_aspect`` default to the preset's (the
+    realistic family's :class:`~arstream.presets.RealPreset`), else 1280 x 720,
+    23 and square pixels. A pixel aspect other than 1 is written into the
+    stream as its sample aspect ratio. The header records the pitch size, and
+    for the realistic family (or non-square pixels) ``pixel_aspect`` [p, q]
+    and ``look`` (:class:`Look`: shadow, other sports' lines, graphics' boxes).
 
     Returns the header dict plus ``generation_fps`` (measured frames per second,
     not written to the header so that the same seed gives identical files).
@@ -755,10 +1128,14 @@ def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250,
 
     from arstream.sink import JsonlWriter, VideoSink
 
-    clip = SynthClip(preset, seed, frames, size, fps)
+    clip = SynthClip(preset, seed, frames, size, fps, pixel_aspect=pixel_aspect)
+    if crf is None:
+        crf = clip.preset.crf if isinstance(clip.preset, RealPreset) else 23
+    w, h = clip.size
+    sar = clip.pixel_aspect if clip.pixel_aspect != 1 else None
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
-    with VideoSink(os.path.join(out_dir, "clip.mp4"), clip.width, clip.height, fps, crf=crf, preset="veryfast") as sink, JsonlWriter(os.path.join(out_dir, "truth.jsonl")) as truth:
+    with VideoSink(os.path.join(out_dir, "clip.mp4"), w, h, fps, crf=crf, preset="veryfast", sample_aspect=sar) as sink, JsonlWriter(os.path.join(out_dir, "truth.jsonl")) as truth:
         for i in range(clip.n):
             sink.write(clip.render(i), pts=i / fps)
             truth.write(clip.truth(i).to_record())
@@ -771,11 +1148,17 @@ def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250,
         "preset": asdict(clip.preset),
         "seed": seed,
         "frames": clip.n,
-        "size": [clip.width, clip.height],
+        "size": [w, h],
         "fps": fps,
         "pitch": {"length": clip.pitch.length, "width": clip.pitch.width, "line_width": clip.pitch.line_width},
         "camera_center": clip.camera_center.tolist(),
     }
+    # (the clean presets' headers stay as they were: no pixel_aspect means 1:1)
+    if clip.look is not None or sar is not None:
+        header["pixel_aspect"] = [clip.pixel_aspect.numerator, clip.pixel_aspect.denominator]
+        header["crf"] = crf
+    if clip.look is not None:
+        header["look"] = asdict(clip.look)
     with open(os.path.join(out_dir, "header.json"), "w") as f:
         json.dump(header, f, indent=2)
     return {**header, "generation_fps": round(clip.n / elapsed, 2)}

@@ -1,6 +1,8 @@
-"""Synthetic clips: determinism, truth records, and lines exactly where truth projects them."""
+"""Synthetic clips: determinism, truth records, and lines exactly where truth projects them;
+the realistic family's look (distortion, pitch size, pixel aspect, other sports' lines, graphics)."""
 
 import json
+from fractions import Fraction
 
 import cv2
 import numpy as np
@@ -9,7 +11,7 @@ import pytest
 from arstream.cli import main
 from arstream.sink import read_jsonl
 from arstream.source import VideoSource
-from arstream.synth import PRESETS, SynthClip, generate
+from arstream.synth import PRESETS, REAL_PRESETS, SynthClip, generate
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
@@ -191,3 +193,240 @@ def test_no_grass_shows_between_the_stands():
     hsv = cv2.cvtColor(img[:100], cv2.COLOR_BGR2HSV)
     green = (hsv[..., 0] > 35) & (hsv[..., 0] < 85) & (hsv[..., 1] > 80)
     assert green.mean() < 0.06  # (green shirts in the crowd: about 3 %)
+
+
+# --- the realistic family (REAL_PRESETS) ---------------------------------------
+def line_support(gray: np.ndarray, cam: Camera, pitch: PitchModel, boxes=(), XY=None) -> float:
+    """Line support (DESIGN.md section 5b) of ``cam`` on ``gray``: of the markings'
+    points every 0.25 m (or the pitch points ``XY`` (N, 2)) projected, distortion
+    included, into the image and outside the graphics' ``boxes``, the share
+    within 2 px (5x5) of a pixel whose luma exceeds its 15x15 box mean by more than 12."""
+    g = gray.astype(np.float32)
+    near = cv2.dilate(((g - cv2.blur(g, (15, 15))) > 12).astype(np.uint8), np.ones((5, 5), np.uint8))
+    XY = pitch.sample_points(0.25) if XY is None else XY
+    px = cam.project(np.column_stack([XY, np.zeros(len(XY))]))
+    px = px[np.isfinite(px).all(axis=1)]
+    q = np.round(px).astype(int)
+    H, W = gray.shape
+    keep = (q[:, 0] >= 0) & (q[:, 0] < W) & (q[:, 1] >= 0) & (q[:, 1] < H)
+    for x0, y0, x1, y1 in boxes:
+        keep &= ~((q[:, 0] >= x0 - 2) & (q[:, 0] < x1 + 2) & (q[:, 1] >= y0 - 2) & (q[:, 1] < y1 + 2))
+    q = q[keep]
+    assert len(q) > 200, "too few marking points in view to judge"
+    return float(near[q[:, 1], q[:, 0]].mean())
+
+
+def panned(cam: Camera, deg: float) -> Camera:
+    """``cam`` turned about its own vertical axis by ``deg`` degrees."""
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return Camera(K=cam.K, R=Ry @ cam.R, t=Ry @ cam.t, dist=cam.dist)
+
+
+# (preset, seed, size, frames): small clips; the wide one's seed has a shadow and k1 about -0.1
+REAL_CLIPS = {
+    "real-wide": (2, (960, 540), 8),
+    "real-penalty": (1, (640, 360), 6),
+    "real-multisport": (1, (640, 360), 6),
+    "real-sd": (0, None, 6),
+}
+
+
+@pytest.fixture(scope="module")
+def real_clips(tmp_path_factory):
+    root = tmp_path_factory.mktemp("real")
+    out = {}
+    for name, (seed, size, frames) in REAL_CLIPS.items():
+        generate(root / name, preset=name, seed=seed, frames=frames, size=size)
+        out[name] = root / name
+    return out
+
+
+def _frames(d):
+    """(image, truth camera, header, graphics boxes on the frame) of each frame of a generated clip."""
+    header = json.loads((d / "header.json").read_text())
+    truth = read_jsonl(d / "truth.jsonl")
+    with VideoSource(d / "clip.mp4") as src:
+        for frame in src:
+            i = frame.index
+            boxes = [g["box"] for g in header["look"]["graphics"] if g["frames"][0] <= i <= g["frames"][1]]
+            yield frame.image, Camera.from_dict(truth[i]), header, boxes
+
+
+@pytest.mark.parametrize("preset", list(REAL_CLIPS))
+def test_real_presets_lines_where_truth_projects_them(real_clips, preset):
+    """The truth camera (distortion and the clip's pitch size included) lands the
+    markings on the rendered white lines after x264; a camera panned 1 degree does not."""
+    good, bad = [], []
+    for img, cam, header, boxes in _frames(real_clips[preset]):
+        pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
+        gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        good.append(line_support(gray, cam, pitch, boxes))
+        bad.append(line_support(gray, panned(cam, 1.0), pitch, boxes))
+    assert np.median(good) >= 0.8 and min(good) >= 0.7, good
+    assert np.median(bad) <= np.median(good) - 0.2, (good, bad)
+
+
+def test_real_wide_truth_needs_its_distortion_and_pitch_size(real_clips):
+    """Where the lens moves the markings by more than 6 px, the truth camera finds
+    them and the same camera without ``dist`` does not; a 105 x 68 m pitch
+    instead of the clip's loses support too: the truth records both."""
+    full, no_dist, default_pitch = [], [], []
+    for img, cam, header, boxes in _frames(real_clips["real-wide"]):
+        pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
+        gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        assert cam.dist and -0.11 < cam.dist[0] < -0.07  # near the wide end of this seed's lens
+        pinhole = Camera(K=cam.K, R=cam.R, t=cam.t)
+        XY = pitch.sample_points(0.25)
+        X = np.column_stack([XY, np.zeros(len(XY))])
+        with np.errstate(invalid="ignore"):
+            moved = np.linalg.norm(cam.project(X) - pinhole.project(X), axis=1) > 6.0
+        full.append(line_support(gray, cam, pitch, boxes, XY[moved]))
+        no_dist.append(line_support(gray, pinhole, pitch, boxes, XY[moved]))
+        default_pitch.append(line_support(gray, cam, PitchModel(), boxes))
+    assert np.median(full) >= 0.8 and np.median(no_dist) <= np.median(full) - 0.3, (full, no_dist)
+    assert np.median(default_pitch) <= np.median(full) - 0.2, (full, default_pitch)
+
+
+def test_real_headers_record_pitch_aspect_and_camera(real_clips):
+    import av
+
+    for name, d in real_clips.items():
+        header = json.loads((d / "header.json").read_text())
+        preset = REAL_PRESETS[name]
+        L, W = header["pitch"]["length"], header["pitch"]["width"]
+        assert preset.pitch_length[0] <= L <= preset.pitch_length[1] and preset.pitch_width[0] <= W <= preset.pitch_width[1]
+        assert header["look"]["pitch"] == [L, W] and header["crf"] == preset.crf
+        p, q = header["pixel_aspect"]
+        assert (p, q) == preset.pixel_aspect
+        with av.open(str(d / "clip.mp4")) as c:
+            stream = c.streams.video[0]
+            assert [stream.codec_context.width, stream.codec_context.height] == header["size"]
+            assert stream.sample_aspect_ratio in (None, Fraction(p, q)) and (stream.sample_aspect_ratio or 1) == Fraction(p, q)
+        for r in read_jsonl(d / "truth.jsonl"):
+            assert TRUTH_KEYS <= set(r) and r["status"] == "ok"
+            cam = Camera.from_dict(r)
+            assert np.isclose(cam.K[1, 1] / cam.K[0, 0], p / q) and cam.dist[0] < 0
+            x, y, z = cam.center
+            assert preset.camera_x[0] <= x <= preset.camera_x[1] and preset.camera_height[0] <= z <= preset.camera_height[1]
+            assert preset.camera_back[0] <= -W / 2 - y <= preset.camera_back[1]
+    assert json.loads((real_clips["real-sd"] / "header.json").read_text())["size"] == [720, 576]
+
+
+def test_real_sd_is_anamorphic_and_exact():
+    """720x576 at 64:45 is drawn 1024 wide and squeezed: a pitch point lands at
+    x_stored = (x_drawn + 0.5) * 720 / 1024 - 0.5 under the truth camera."""
+    clip = SynthClip("real-sd", seed=3, frames=2)
+    assert (clip.width, clip.height) == (1024, 576) and clip.size == (720, 576) and clip.render(0).shape == (576, 720, 3)
+    XY = np.array([[0.0, 0.0], [10.0, -20.0], [-30.0, 15.0]])
+    drawn, stored = clip._camera_at(0).project_pitch(XY), clip.camera(0).project_pitch(XY)
+    assert np.allclose(stored[:, 0], (drawn[:, 0] + 0.5) * 720 / 1024 - 0.5) and np.allclose(stored[:, 1], drawn[:, 1])
+
+
+def test_other_sport_lines_are_coloured_not_white(real_clips):
+    """The multisport clip's yellow, orange and blue lines are in the picture and
+    coloured (the white markings are not): red minus blue gain over the grass beside them."""
+    gains = {}
+    for img, cam, header, boxes in _frames(real_clips["real-multisport"]):
+        pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
+        white = pitch.sample_points(0.25)
+        sets = {"white": white}
+        for line in header["look"]["other_lines"]:
+            a, b = np.asarray(line["points"], float)
+            P = a + np.linspace(0, 1, 100)[:, None] * (b - a)
+            near_white = np.min(np.linalg.norm(P[:, None] - white[None, ::4], axis=2), axis=1) < 1.5
+            sets[line["colour"]] = np.vstack([sets.get(line["colour"], np.zeros((0, 2))), P[~near_white]])
+        f = img.astype(np.float32)
+        H, W = img.shape[:2]
+        for colour, P in sets.items():
+            px = cam.project(np.column_stack([P, np.zeros(len(P))]))
+            px = px[np.isfinite(px).all(axis=1)]
+            q = np.round(px).astype(int)
+            q = q[(q[:, 0] >= 8) & (q[:, 0] < W - 8) & (q[:, 1] >= 8) & (q[:, 1] < H - 8)]
+            ring = np.median(np.stack([f[q[:, 1] + dy, q[:, 0] + dx] for dx, dy in ((-6, 0), (6, 0), (0, -6), (0, 6))]), axis=0)
+            d = f[q[:, 1], q[:, 0]] - ring  # BGR gain over the grass beside
+            gains.setdefault(colour, []).append(np.median(d[:, 2] - d[:, 0]))
+    assert {"yellow", "orange", "blue"} <= set(gains), set(gains)
+    assert np.median(gains["yellow"]) > 25 and np.median(gains["orange"]) > 25, gains
+    assert np.median(gains["blue"]) < -25, gains
+    assert abs(np.median(gains["white"])) < 15, gains
+
+
+@pytest.mark.parametrize("preset, seed", [("real-wide", 2), ("real-multisport", 1), ("real-sd", 0)])
+def test_real_graphics_are_over_the_picture(preset, seed):
+    """Each graphic recorded in the look is drawn inside its recorded box (the
+    frame without graphics differs nowhere else), with white text-like strokes;
+    the opaque ones hide the picture."""
+    from dataclasses import replace
+
+    clip = SynthClip(preset, seed=seed, frames=4, size=(640, 360) if preset != "real-sd" else None)
+    graphics = clip.look.graphics
+    with_g = clip.render(1).astype(np.int16)
+    clip.look = replace(clip.look, graphics=[])
+    without = clip.render(1).astype(np.int16)
+    changed = np.abs(with_g - without).max(axis=2) > 0
+    inside = np.zeros_like(changed)
+    kinds = set()
+    for g in graphics:
+        if not g["frames"][0] <= 1 <= g["frames"][1]:
+            continue
+        kinds.add(g["kind"])
+        x0, y0, x1, y1 = g["box"]
+        inside[y0:y1, x0:x1] = True
+        box_changed = changed[y0:y1, x0:x1].mean()
+        brighter = (with_g[y0:y1, x0:x1].min(axis=2) - without[y0:y1, x0:x1].min(axis=2)) > 20
+        assert brighter.mean() > 0.03, (g["kind"], brighter.mean())  # white strokes
+        if g["opacity"] >= 1.0:
+            assert box_changed > 0.9, (g["kind"], box_changed)
+        if g["kind"] == "black box":
+            assert np.median(with_g[y0:y1, x0:x1]) < 10
+    assert not changed[~inside].any(), "a graphic drew outside its recorded box"
+    assert {"logo"} < kinds and ({"score", "caption"} <= kinds or {"black box", "watermark"} <= kinds), kinds
+
+
+def test_real_presets_deterministic_and_varied():
+    a = SynthClip("real-wide", seed=3, frames=20, size=(320, 180))
+    b = SynthClip("real-wide", seed=3, frames=20, size=(320, 180))
+    assert a.look == b.look and np.array_equal(a.render(7), b.render(7))
+    assert a.truth(7).to_record() == b.truth(7).to_record()
+    looks = [SynthClip("real-wide", seed=s, frames=2, size=(320, 180)).look for s in range(4)]
+    assert len({tuple(lk.pitch) for lk in looks}) > 2 and len({lk.stripes for lk in looks}) > 1
+    assert any(lk.shadow for lk in looks) and not all(lk.shadow for lk in looks)
+    # a given pitch replaces the drawn one, and nothing else changes
+    c = SynthClip("real-wide", seed=3, frames=20, size=(320, 180), pitch=PitchModel(100.0, 64.0))
+    assert c.look.pitch == [100.0, 64.0] and c.pitch.length == 100.0 and c.look.graphics == a.look.graphics
+
+
+def test_clean_presets_keep_their_header(tmp_path):
+    """The clean presets' headers have no realistic-family keys (their output is unchanged)."""
+    header = json.loads(json.dumps(generate(tmp_path, preset="hard", seed=2, frames=1, size=(320, 180))))
+    assert set(header) == {"generator", "version", "preset", "seed", "frames", "size", "fps", "pitch", "camera_center", "generation_fps"}
+    assert set(header["preset"]) == {"name", "description", "f_range", "zoom_period", "target_x", "target_y", "fast_pans", "blur", "white_kit", "stadium_shadow", "k1", "pp_offset", "cut", "noise"}
+    assert set(REAL_PRESETS).isdisjoint(PRESETS)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(preset="real-wide", pixel_aspect=(3, 1)), "pixel aspect"),
+        (dict(preset="real-sd", size=(721, 576)), "even"),
+    ],
+)
+def test_real_bad_parameters(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        SynthClip(**kwargs)
+
+
+def test_cli_synth_real_preset(tmp_path, capsys):
+    assert main(["synth", "--preset", "real-sd", "--frames", "2", "--out", str(tmp_path / "c")]) == 0
+    header = json.loads((tmp_path / "c" / "header.json").read_text())
+    assert header["size"] == [720, 576] and header["pixel_aspect"] == [64, 45] and header["crf"] == 30
+    assert main(["synth", "--preset", "real-wide", "--frames", "2", "--size", "640x480", "--pixel-aspect", "8:9", "--crf", "35", "--out", str(tmp_path / "d")]) == 0
+    header = json.loads((tmp_path / "d" / "header.json").read_text())
+    assert header["size"] == [640, 480] and header["pixel_aspect"] == [8, 9] and header["crf"] == 35
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(["synth", "--preset", "real-wide", "--frames", "2", "--pixel-aspect", "wide", "--out", str(tmp_path / "e")])
+    assert exc.value.code == 2 and "pixel aspect must look like 64:45" in capsys.readouterr().err
+    assert main(["synth", "--preset", "real-wide", "--frames", "2", "--pixel-aspect", "3:1", "--out", str(tmp_path / "f")]) == 2
+    assert "pixel aspect must be in [1/2, 2]" in capsys.readouterr().err
