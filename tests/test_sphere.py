@@ -475,15 +475,20 @@ def test_cli_json_matches_library(rendered, capsys):
     assert len(out["images"]) == 3
     assert np.allclose(out["images"][1]["centre"], lib.centres(RADIUS)[1], rtol=1e-9)
     assert out["images"][0]["n_points"] == len(outlines[0].edge_points)
+    # JSON is the default, as for every calibration tool; --json is kept for older scripts
+    assert main(["calib", "sphere", *paths[:3], "--radius", str(RADIUS)]) == 0
+    assert json.loads(capsys.readouterr().out) == out
 
 
 def test_cli_summary_and_errors(rendered, capsys, tmp_path):
     from arstream.cli import main
 
     _, paths, _ = rendered
-    assert main(["calib", "sphere", *paths[3:6], "--radius", "0.1", "--square-pixels"]) == 0
+    assert main(["calib", "sphere", *paths[3:6], "--radius", "0.1", "--square-pixels", "--summary"]) == 0
     out = capsys.readouterr().out
     assert "K (square_pixels, geometric" in out and "focal length" in out
+    assert main(["calib", "sphere", *paths[3:6], "--radius", "0.1", "--summary", "--pretty"]) == 2
+    assert "--summary prints text: it excludes --json and --pretty" in capsys.readouterr().err
     assert main(["calib", "sphere", paths[0], str(tmp_path / "missing.png"), paths[1], "--radius", "0.1"]) == 2
     assert "image not found" in capsys.readouterr().err
     bad = tmp_path / "bad.png"

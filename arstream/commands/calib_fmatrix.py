@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +65,8 @@ def _parse_indices(text: str) -> list[int]:
 def _run(args: argparse.Namespace) -> int:
     from calib import fmatrix
 
+    from arstream.commands.calib import print_report
+
     x1 = _read_points(args.points1)
     x2 = _read_points(args.points2)
     if args.coplanar is not None:
@@ -90,12 +91,12 @@ def _run(args: argparse.Namespace) -> int:
     if args.per_point:
         out["inliers"] = res.inliers.astype(int).tolist()
         out["residuals_px"] = res.residuals.tolist()
-    json.dump(out, sys.stdout, indent=2 if args.pretty else None)
-    sys.stdout.write("\n")
+    print_report(out, args)
     return 0
 
 
 def register(subparsers) -> None:
+    from arstream.commands.calib import add_output_arguments
     from calib.fmatrix import REFINE_COSTS, ROBUST_METHODS, SIX_POINT_METHODS
 
     p = subparsers.add_parser(
@@ -120,5 +121,5 @@ def register(subparsers) -> None:
     )
     p.add_argument("--six-point-method", choices=SIX_POINT_METHODS, default="projective", help="six-point formulation (default: %(default)s)")
     p.add_argument("--per-point", action="store_true", help="also print the inlier mask and the residuals")
-    p.add_argument("--pretty", action="store_true", help="indent the JSON")
+    add_output_arguments(p)
     p.set_defaults(func=_run)

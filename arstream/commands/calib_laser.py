@@ -18,10 +18,10 @@ the sphere centres and the residuals.
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
+from arstream.commands.calib import add_output_arguments, print_report
 from arstream.commands.calib_one_d import _conic, _read_image, _read_json
 from arstream.errors import InputError
 
@@ -46,6 +46,7 @@ def register(subparsers) -> None:
     p.add_argument("--square-pixels", action="store_true", help="assume fx = fy (and zero skew)")
     p.add_argument("--skew", action="store_true", help="estimate a skew term too")
     p.add_argument("--no-refine", action="store_true", help="skip the joint refinement")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -120,5 +121,5 @@ def run(args: argparse.Namespace) -> int:
         "K_spheres": res.K_spheres.tolist(),
         "plane_init": {"normal": res.plane_init.normal.tolist(), "d": res.plane_init.d},
     }
-    print(json.dumps(report))
+    print_report(report, args)
     return 0

@@ -17,7 +17,7 @@ Three inputs, one of them:
   sphere's outline is found in every image
   (:func:`calib.sphere.fit_sphere_outline`).
 
-Prints one JSON object on stdout.
+Prints one JSON object on stdout (docs/calib.md has a worked example of each input).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import os
 
 import numpy as np
 
+from arstream.commands.calib import add_output_arguments, print_report
 from arstream.errors import InputError
 
 ORDER = 20
@@ -56,6 +57,7 @@ def register(subparsers) -> None:
     p.add_argument("--square-pixels", action="store_true", help="assume fx = fy (and zero skew)")
     p.add_argument("--skew", action="store_true", help="estimate a skew term too (Zhang's general model)")
     p.add_argument("--no-refine", action="store_true", help="report the closed-form solution only")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -267,5 +269,5 @@ def run(args: argparse.Namespace) -> int:
         if images is not None:
             extra["images"] = images
         report = _report(res, extra)
-    print(json.dumps(report))
+    print_report(report, args)
     return 0

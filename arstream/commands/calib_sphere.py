@@ -5,18 +5,19 @@ the sphere elsewhere in every image). The command finds each outline
 (:func:`calib.sphere.fit_sphere_outline`), estimates ``K``
 (:func:`calib.sphere.intrinsics_from_spheres`, with the edge points, so the
 answer is the geometric refinement) and, from the radius, the sphere's centre
-in each image's camera frame. It prints a summary, or one JSON object with
-``--json``.
+in each image's camera frame. It prints one JSON object, as every calibration
+tool does, or a summary for people with ``--summary``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 
 import cv2
 import numpy as np
+
+from arstream.commands.calib import add_output_arguments, print_report
 
 ORDER = 10
 
@@ -27,14 +28,17 @@ def register(subparsers) -> None:
         help="intrinsics from three or more images of a sphere",
         description=(
             "Calibrate a camera from images of a sphere (rank-1 constraint of the sphere's "
-            "outline and the image of the absolute conic). Each image shows the sphere once."
+            "outline and the image of the absolute conic). Each image shows the sphere once. "
+            "Prints JSON (--summary: a summary for people)."
         ),
     )
     p.add_argument("images", nargs="+", metavar="IMAGE", help="image files (3 or more), one sphere each")
     p.add_argument("--radius", type=float, required=True, help="sphere radius (sets the units of the centres)")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
+    p.add_argument("--summary", action="store_true", help="print a summary for people instead of the JSON")
+    p.add_argument("--json", action="store_true", help=argparse.SUPPRESS)  # the default; accepted for older scripts
     p.add_argument("--square-pixels", action="store_true", help="assume fx = fy (and zero skew)")
     p.add_argument("--skew", action="store_true", help="estimate a skew term too")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -54,6 +58,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--radius must be positive, got {args.radius}")
     if args.square_pixels and args.skew:
         raise ValueError("--square-pixels and --skew exclude each other")
+    if args.summary and (args.json or args.pretty):
+        raise ValueError("--summary prints text: it excludes --json and --pretty")
     if len(args.images) < 3:
         raise ValueError(f"sphere calibration needs at least 3 images, got {len(args.images)}")
     images = [_read(path) for path in args.images]  # fail early on a missing file
@@ -93,8 +99,8 @@ def run(args: argparse.Namespace) -> int:
             for i, (path, o) in enumerate(zip(args.images, outlines))
         ],
     }
-    if args.json:
-        print(json.dumps(report))
+    if not args.summary:
+        print_report(report, args)
         return 0
     K = res.K
     print(f"K ({res.model}, {res.constraint_set}; rms {res.rms:.3f} px):")
