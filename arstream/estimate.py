@@ -1,5 +1,5 @@
 """The per-frame camera estimate that the solver/tracker hands to the rest of
-the pipeline, and its ``cameras.jsonl`` record (DESIGN.md section 5)."""
+the pipeline, and its ``cameras.jsonl`` record (docs/formats.md)."""
 
 from __future__ import annotations
 

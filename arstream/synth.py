@@ -16,7 +16,7 @@ Lens distortion is applied as a final remap of an undistorted render over a
 slightly larger canvas, so every element (lines, grass, stands) is distorted
 consistently with ``dist``.
 
-Frames: the pitch frame of DESIGN.md section 2; images are BGR uint8.
+Frames: the pitch frame of docs/formats.md; images are BGR uint8.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ GENERATOR_VERSION = 1
 
 @dataclass
 class TruthFrame:
-    """Ground truth of one frame (a ``truth.jsonl`` record, DESIGN.md section 5)."""
+    """Ground truth of one frame (a ``truth.jsonl`` record, docs/formats.md)."""
 
     frame: int
     pts: float

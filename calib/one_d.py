@@ -74,7 +74,7 @@ ratios are K-free; the lengths are not, and no K-free 1-D calibration with
 unknown lengths exists for a single camera, so ``K`` comes from the sphere
 constraints with the K-free centres (closed form) and the ML refinement.
 
-Conventions (DESIGN.md section 2): OpenCV camera ``x ~ K X`` with ``X`` in the
+Conventions (docs/formats.md): OpenCV camera ``x ~ K X`` with ``X`` in the
 camera frame (looking down +z), pixels with integer pixel centres; ``K``
 upper triangular, ``K[2, 2] = 1``; conics normalised as in
 :mod:`geometry.conics` (negative inside). Lengths are in the units of

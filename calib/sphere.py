@@ -27,7 +27,7 @@ From that:
 * **Outline extraction** (:func:`fit_sphere_outline`): sub-pixel edge points
   of the silhouette in an image, robust conic fit.
 
-Conventions (DESIGN.md section 2): OpenCV camera ``x ~ K (R X + t)``, camera
+Conventions (docs/formats.md): OpenCV camera ``x ~ K (R X + t)``, camera
 looks down +z, pixels with integer pixel centres; ``K`` upper triangular with
 ``K[2, 2] = 1``; conics are normalised symmetric 3x3 matrices (unit Frobenius
 norm, negative inside an ellipse) as in :mod:`geometry.conics`. Points are

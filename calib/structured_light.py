@@ -33,7 +33,7 @@ image ``S`` of that circle.
   response (Hessian of the smoothed response), then the centre of gravity of
   the response across the stripe (along the ridge normal), sub-pixel.
 
-Conventions (DESIGN.md section 2): OpenCV camera ``x ~ K X``, ``X`` in the
+Conventions (docs/formats.md): OpenCV camera ``x ~ K X``, ``X`` in the
 camera frame (looking down +z), pixels with integer pixel centres; conics
 normalised as in :mod:`geometry.conics`; images uint8 H x W x 3 BGR; the
 light plane is :class:`LightPlane` ``(normal, d)`` with ``normal . X = d``,

@@ -3,7 +3,7 @@
 Nothing here does I/O, opens windows or touches GL; every function works on
 numpy arrays and documents their shapes and frames.
 
-Conventions (DESIGN.md section 2), stated once here and repeated where used:
+Conventions (docs/formats.md, from DESIGN.md section 2), stated once here and repeated where used:
 
 * Homogeneous vectors carry the scale last: a point is ``(x, y, w)``, a line
   ``(a, b, c)`` with ``a x + b y + c = 0``.

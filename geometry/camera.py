@@ -237,7 +237,7 @@ class Camera:
 
     # --- serialisation ----------------------------------------------------------
     def to_dict(self) -> dict:
-        """JSON-ready dict with ``K``, ``R``, ``t``, ``dist`` and ``H`` (DESIGN.md section 5)."""
+        """JSON-ready dict with ``K``, ``R``, ``t``, ``dist`` and ``H`` (docs/formats.md)."""
         H = self.H_img_from_pitch
         H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 else H / np.linalg.norm(H)
         return {

@@ -1,6 +1,6 @@
 """Virtual objects described in pitch metres.
 
-Frame (DESIGN.md section 2): metres, origin at the centre spot, X along the
+Frame (docs/formats.md): metres, origin at the centre spot, X along the
 touchlines, Y along the halfway line away from the main camera, Z up; the
 pitch is Z = 0. Angles are in degrees, counter-clockwise seen from above.
 

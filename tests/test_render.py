@@ -567,7 +567,7 @@ def test_renderer_input_errors(ctx):
 
 
 def test_camera_from_cameras_jsonl_record_renders(ctx):
-    """A record of cameras.jsonl (DESIGN.md section 5) goes straight into the renderer."""
+    """A record of cameras.jsonl (docs/formats.md) goes straight into the renderer."""
     cam = CAMERAS["distorted"]
     rec = json.loads(json.dumps({"frame": 0, "pts": 0.0, "status": "ok", **cam.to_dict(), "confidence": 1.0}))
     cam2 = Camera.from_dict(rec)
