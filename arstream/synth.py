@@ -416,8 +416,9 @@ class SynthClip:
     pixel_aspect : (p, q) or Fraction, the stored pixels' aspect ratio (width
         over height of one pixel); default the preset's, else 1. Frames are
         drawn with square pixels at ``round(width * p / q)`` x height and
-        squeezed to ``size``; the cameras (``K[1, 1] / K[0, 0] = p / q``) are
-        the stored frames'.
+        squeezed to ``size``; the cameras are the stored frames' (``K[1, 1] /
+        K[0, 0]`` is ``width / size[0]``: p / q up to rounding the drawn width
+        to even pixels; exactly 64/45 at 720x576).
 
     Use :meth:`truth` for the ground truth of frame ``i`` and :meth:`render`
     for its image (BGR uint8, ``size``). :attr:`look` is the realistic
