@@ -8,7 +8,14 @@ import time
 
 class Progress:
     """Progress over ``total`` items (0 or None: unknown), redrawn at most 4 times a second
-    when ``stream`` is a terminal; silent otherwise."""
+    when ``stream`` is a terminal; silent otherwise.
+
+    The rate is counted from the first :meth:`update` (the first item done), not
+    from the bar's creation, so that set-up before the work (opening the input,
+    the GL context, loading the compiled kernels) does not lower it. A caller
+    that measured the run itself gives its own count and seconds to
+    :meth:`finish`, and the final bar shows exactly that rate (``arstream
+    process``: the summary line's fps)."""
 
     def __init__(self, total: int | None, *, label: str = "", stream=None):
         self.total = total or 0
@@ -16,8 +23,10 @@ class Progress:
         self.stream = stream or sys.stderr
         self.enabled = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start = time.perf_counter()
+        self.first: tuple[float, int] | None = None  # (time, done) of the first update
         self.last = 0.0
         self.done = 0
+        self.final_fps: float | None = None
 
     def __enter__(self) -> "Progress":
         return self
@@ -30,14 +39,28 @@ class Progress:
 
     @property
     def fps(self) -> float:
-        dt = time.perf_counter() - self.start
-        return self.done / dt if dt > 0 else 0.0
+        """Items a second since the first update (the final rate after :meth:`finish`)."""
+        if self.final_fps is not None:
+            return self.final_fps
+        if self.first is None:
+            return 0.0
+        t0, d0 = self.first
+        dt = time.perf_counter() - t0
+        return (self.done - d0) / dt if dt > 0 else 0.0
+
+    def finish(self, done: int, seconds: float) -> None:
+        """The run's own count and wall time: the final bar shows ``done`` and
+        ``done / seconds`` (the rate the run's summary reports)."""
+        self.done = done
+        self.final_fps = done / seconds if seconds > 0 else 0.0
 
     def update(self, done: int, total: int | None = None) -> None:
+        now = time.perf_counter()
+        if self.first is None:
+            self.first = (now, done)
         self.done = done
         if total:
             self.total = total
-        now = time.perf_counter()
         if self.enabled and now - self.last >= 0.25:
             self.last = now
             self._draw()

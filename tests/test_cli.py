@@ -9,6 +9,8 @@ are fast and need no GL context.
 
 from __future__ import annotations
 
+import argparse
+import io
 import os
 import subprocess
 import sys
@@ -16,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+import arstream
 from arstream.batch import BatchSummary
 from arstream.cli import build_parser, main
 from arstream.errors import InputError
@@ -192,3 +195,67 @@ def test_a_batch_with_nothing_to_do_reports_no_workers():
     assert line == "1 clips: 1 ok (1 skipped, complete from an earlier run); nothing processed (0.3 s)"
     ran = BatchSummary(out_dir="out", workers=2, clips=[dict(rec, skipped=False)], seconds=2.0).line()
     assert ran.endswith("; 12 frames in 2.0 s (6.0 fps, 2 local workers)")
+
+
+# --------------------------------------------------------------------------- the library's boundaries
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda d: arstream.process(d / "in.mp4", d / "o.mp4", max_frames=-5), "max_frames must be 1 or more, got -5"),
+        (lambda d: arstream.process(d / "in.mp4", cameras_out=d / "c.jsonl", max_frames=0), "max_frames must be 1 or more, got 0"),
+        (lambda d: arstream.stream(d / "in.mp4", max_frames=0), "max_frames must be 1 or more, got 0"),
+        (lambda d: arstream.process(d / "in.mp4", d / "o.mp4", cameras_out=d / "x" / ".." / "o.mp4"), "output and cameras_out are the same file ({d}/o.mp4): give the cameras a file of their own"),
+        (lambda d: arstream.stream(d / "in.mp4", cameras_out=d / "in.mp4"), "output {d}/in.mp4 would overwrite the input"),
+        (lambda d: arstream.render_clip(d / "in.mp4", d / "c.jsonl", d / "in.mp4"), "output {d}/in.mp4 would overwrite the input"),
+    ],
+    ids=["process -5", "process 0", "stream 0", "same file", "stream cameras over input", "render over input"],
+)
+def test_the_library_refuses_before_any_work(tmp_path, call, message):
+    with pytest.raises(InputError) as e:
+        call(tmp_path)
+    assert str(e.value) == message.format(d=tmp_path)
+    assert not any(tmp_path.iterdir())
+
+
+# --------------------------------------------------------------------------- the progress bar and the summary line
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_the_final_bar_shows_the_summary_lines_fps(monkeypatch, capsys):
+    """The run took 2.0 s for 10 frames after 3 s of set-up (a fake clock): the bar
+    counts from its first update, and its final draw shows the summary's own
+    10 / 2.0 = 5.0 fps, the number the summary line prints."""
+    from arstream import progress
+    from arstream.commands._clip import run_clip
+    from arstream.pipeline import Summary
+
+    clock = [100.0]
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: clock[0])
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+
+    def call(update):
+        clock[0] += 3.0  # opening, GL context, kernels
+        for i in range(1, 11):
+            clock[0] += 0.19
+            update(i, 10)
+        return Summary(frames=10, seconds=2.0, tracked=10, confidence=0.9)
+
+    args = argparse.Namespace(quiet=False, json=False)
+    assert run_clip(call, args, label="process", verb="processed", finalised="", missing=lambda s: "") == 0
+    draws = term.getvalue().split("\r")
+    assert draws[-1] == "process [##############################] 10/10    5.0 fps ETA   0.0s\n"
+    assert "(5.0 fps)" in capsys.readouterr().out
+    assert "  5.3 fps" in draws[-2]  # the live rate: 9 frames in 1.71 s, set-up excluded (it was 0.6 fps with it)
+
+
+def test_render_does_not_say_tracked():
+    from arstream.pipeline import Summary
+
+    drawn = Summary(frames=4, tracked=3, seconds=1.0, confidence=1.0, cameras_in="c.jsonl", output="o.mp4")
+    assert drawn.line() == "4 frames in 1.0 s (4.0 fps), a camera from c.jsonl on 75.0% of them -> o.mp4"
+    assert drawn.to_dict()["cameras_in"] == "c.jsonl"
+    tracked = Summary(frames=4, tracked=3, seconds=1.0, confidence=0.5)
+    assert tracked.line() == "4 frames in 1.0 s (4.0 fps), tracked 75.0%, mean confidence 0.50"

@@ -97,6 +97,7 @@ def run_clip(call: Callable, args, *, label: str, verb: str, finalised: str, mis
     try:
         with bar:
             summary = call(bar.update)
+            bar.finish(summary.frames, summary.seconds)  # the final bar's fps is the summary line's
     except Interrupted as exc:
         report(exc.summary, args, verb=verb, missing=missing)
         print(f"arstream: interrupted ({exc.summary.frames} frames{finalised})", file=sys.stderr)

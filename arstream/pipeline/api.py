@@ -54,9 +54,19 @@ def _open(input, *, format=None, options=None, threads: bool = True) -> VideoSou
     return VideoSource(input, format=format, options=options, threads=threads)
 
 
-def _check_output(output, input) -> None:
-    if output is not None and os.path.abspath(os.fspath(output)) == os.path.abspath(os.fspath(input)):
-        raise InputError(f"output {output} would overwrite the input")
+def _check_outputs(input, *, output=None, cameras_out=None, max_frames: int | None = None) -> None:
+    """Refuse, before any work, what would fail or lose data later: an output
+    that would overwrite the input, one file for both the video and the
+    cameras (each is written beside its name and renamed into place: the
+    second rename would fail), ``max_frames`` below 1. InputError."""
+    where = {os.path.abspath(os.fspath(p)): p for p in (output, cameras_out) if p is not None}
+    src = os.path.abspath(os.fspath(input))
+    if src in where:
+        raise InputError(f"output {where[src]} would overwrite the input")
+    if output is not None and cameras_out is not None and len(where) == 1:
+        raise InputError(f"output and cameras_out are the same file ({output}): give the cameras a file of their own")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames must be 1 or more, got {max_frames}")
 
 
 def _build(stages_fn, source: VideoSource) -> list[Stage]:
@@ -145,7 +155,7 @@ def process(
         pattern kept: a smaller output, closer to the input; see
         :class:`arstream.sink.VideoSink`); False: x264 chooses every frame's type
     progress : callable(done, total), optional
-    max_frames : stop after this many frames
+    max_frames : stop after this many frames (1 or more)
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     analysis_width : width (pixels) of the frames detection and tracking work on;
@@ -164,14 +174,14 @@ def process(
 
     Raises
     ------
-    InputError : missing file, not a video, bad output path
+    InputError : missing file, not a video, bad output path, one file for
+        ``output`` and ``cameras_out``, ``max_frames`` below 1
     ArstreamError : no OpenGL context (names the fix), stage failures
     Interrupted : stopped by a signal, after the outputs were finalised
     """
     if output is None and cameras_out is None:
         raise InputError("nothing to write: give an output video, cameras_out, or both")
-    _check_output(output, input)
-    _check_output(cameras_out, input)
+    _check_outputs(input, output=output, cameras_out=cameras_out, max_frames=max_frames)
     if threads < 0:
         raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
     single = threads == 1
@@ -224,7 +234,7 @@ def render_clip(
     None no keying. ``overlap`` computes the matte of frame i+1 on a worker
     thread while frame i is rendered. ``keep_b_frames`` as for :func:`process`.
     """
-    _check_output(output, input)
+    _check_outputs(input, output=output)
     if key is True:
         key = "detector"
     if not (key in (None, False, "detector", "green") or callable(key)):
@@ -250,6 +260,7 @@ def render_clip(
         )
         pipe = Pipeline(src, stages, progress=progress, decode_nice=WORKER_NICE)
         pipe.summary.output = os.fspath(output)
+        pipe.summary.cameras_in = os.fspath(cameras)
         pipe.summary.missing = _missing(*stages)
         return pipe.run(handle_signals=handle_signals)
 
@@ -293,8 +304,7 @@ def stream(
 
     warn = warn or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
     mode = parse_rerun(rerun)
-    if output is not None:
-        _check_output(output, source)
+    _check_outputs(source, output=output, cameras_out=cameras_out, max_frames=max_frames)
     _load_kernels()
     with _open(source, format=format, options=options) as src:
         W, H = src.width, src.height

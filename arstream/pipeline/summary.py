@@ -18,6 +18,9 @@ class Summary:
     ----------
     input : str
     output, cameras : str or None, files written
+    cameras_in : str or None, the cameras file a run drew with
+        (:func:`~arstream.pipeline.render_clip`): nothing was tracked, and
+        ``tracked`` counts the frames that had a camera in that file
     frames : int, frames that went through every stage (= frames written)
     tracked : int, frames with a camera (status "ok" or "tracked")
     confidence : float, mean confidence over all frames (0 for lost frames)
@@ -48,6 +51,7 @@ class Summary:
     missing: list = field(default_factory=list)
     width: int = 0
     height: int = 0
+    cameras_in: str | None = None
 
     @property
     def fps(self) -> float:
@@ -59,10 +63,11 @@ class Summary:
 
     def line(self) -> str:
         """One line for the terminal."""
-        s = (
-            f"{self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps), "
-            f"tracked {self.share_tracked:.1%}, mean confidence {self.confidence:.2f}"
-        )
+        s = f"{self.frames} frames in {self.seconds:.1f} s ({self.fps:.1f} fps), "
+        if self.cameras_in is None:
+            s += f"tracked {self.share_tracked:.1%}, mean confidence {self.confidence:.2f}"
+        else:  # drawn with cameras from a file: nothing was tracked
+            s += f"a camera from {self.cameras_in} on {self.share_tracked:.1%} of them"
         if self.dropped:
             s += f", dropped {self.dropped}"
         outs = [p for p in (self.output, self.cameras) if p]
@@ -75,6 +80,7 @@ class Summary:
             "input": self.input,
             "output": self.output,
             "cameras": self.cameras,
+            "cameras_in": self.cameras_in,
             "frames": self.frames,
             "tracked": self.tracked,
             "share_tracked": round(self.share_tracked, 4),
