@@ -1,6 +1,6 @@
 """Judging cameras against the frames themselves (no ground truth): ``arstream eval --video``.
 
-The cameras of a run (``cameras.jsonl``, DESIGN.md section 5) are paired with
+The cameras of a run (``cameras.jsonl``, docs/formats.md) are paired with
 the frames of its input by the records' ``frame`` index (a video's decode
 order; a frame sequence's position). Per frame with a camera (status ``ok``
 or ``tracked``) the line support is measured (:mod:`arstream.support`:
