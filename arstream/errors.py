@@ -25,6 +25,9 @@ class InputError(ArstreamError):
 class SourceLost(ArstreamError):
     """A live network source stopped delivering (stalled or dropped) and did not
     come back within the reconnection window; raised by the source after the
-    last frame it read, so the outputs hold every frame up to the loss."""
+    last frame it read, so the outputs hold every frame up to the loss.
+    ``summary``: the run's summary when a pipeline ran (set by
+    :func:`arstream.pipeline.stream`), else None."""
 
     exit_code = 1
+    summary = None

@@ -4,8 +4,9 @@ loopback address that each test scripts: serve the clip slowly, stop sending
 without closing (a stall), close mid-stream (a drop), or answer 503 (down).
 
 Time bounds: the pytest-timeout plugin is not used in this project, so every
-read of a source runs on a watchdog thread (:func:`bounded`) and every command
-in a subprocess with ``timeout=``; a hang fails the test within its bound
+read of a source and every in-process ``arstream`` command runs on a watchdog
+thread (:func:`bounded`), and the Ctrl-C test runs the command in a
+subprocess with timeouts on each wait; a hang fails the test within its bound
 (at most 25 s) instead of blocking the suite.
 """
 
@@ -24,7 +25,7 @@ import av
 import pytest
 
 from arstream.errors import InputError, SourceLost
-from arstream.source import ReconnectingSource, VideoSource, reconnect_wait
+from arstream.source import ReconnectingSource, VideoSource, open_live, reconnect_wait
 from arstream.synth import generate
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -35,9 +36,9 @@ CHUNK = 188 * 50  # bytes per write (50 MPEG-TS packets)
 
 @pytest.fixture(scope="module")
 def ts_clip(tmp_path_factory):
-    """A 40-frame 25 fps MPEG-TS clip (what a live HTTP source sends), its bytes and its decoded frames."""
+    """A 40-frame 25 fps 320 x 180 MPEG-TS clip (what a live HTTP source sends), its bytes and its decoded frames."""
     d = tmp_path_factory.mktemp("live")
-    generate(d, preset="wide", seed=4, frames=FRAMES, size=(640, 360))
+    generate(d, preset="wide", seed=4, frames=FRAMES, size=(320, 180))
     ts = d / "clip.ts"
     with av.open(str(d / "clip.mp4")) as i, av.open(str(ts), "w") as o:
         v = i.streams.video[0]
@@ -335,3 +336,126 @@ def test_a_udp_source_that_stops_sending_times_out(ts_clip):
     assert lost is not None and "no data for 2 s (timed out)" in str(lost[0])
     assert lost[1] - t0 < 10
     assert len(frames) > FRAMES // 2 and [f.index for f in frames] == list(range(len(frames)))
+
+
+
+def test_open_live_reconnects_urls_only(ts_clip):
+    with open_live(ts_clip["dir"] / "clip.ts") as src:
+        assert type(src) is VideoSource
+    with Server(ts_clip["data"], [("serve", None)]) as srv, open_live(srv.url, reconnect=3, timeout=2) as src:
+        assert type(src) is ReconnectingSource and (src.reconnect, src.timeout) == (3, 2)
+        assert (src.width, src.height, src.fps, src.is_live, src.audio_stream) == (320, 180, 25, True, None)
+
+# --------------------------------------------------------------------------- the command
+def arstream_cmd(*args: str) -> list[str]:
+    return [sys.executable, "-m", "arstream.cli", "stream", *args]
+
+
+def outputs(tmp_path) -> list[str]:
+    return ["--rerun", "save", str(tmp_path / "live.rrd"), "-o", str(tmp_path / "live.mp4"), "--cameras-out", str(tmp_path / "cameras.jsonl")]
+
+
+def check_outputs(tmp_path, frames: int) -> None:
+    """The three outputs are complete: cameras.jsonl parses with frames 0..frames-1 in
+    order and increasing pts, the mp4 opens and holds that many frames, the .rrd verifies;
+    no temporary file is left."""
+    from arstream.sink import read_jsonl
+
+    recs = read_jsonl(tmp_path / "cameras.jsonl")
+    assert [r["frame"] for r in recs] == list(range(frames))
+    pts = [r["pts"] for r in recs]
+    assert all(b > a for a, b in zip(pts, pts[1:]))
+    with av.open(str(tmp_path / "live.mp4")) as c:
+        assert sum(1 for _ in c.decode(video=0)) == frames
+    v = subprocess.run([RERUN, "rrd", "verify", str(tmp_path / "live.rrd")], capture_output=True, text=True, env=dict(os.environ, RERUN_ANALYTICS="0"), timeout=20)
+    assert v.returncode == 0, v.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cameras.jsonl", "live.mp4", "live.rrd"]
+
+
+def run_main(argv: list[str], capsys, bound: float = 25.0) -> tuple[int, str, str]:
+    """``arstream`` in this process (no start-up cost) on a watchdog thread: (exit status, stdout, stderr)."""
+    from arstream.cli import main
+
+    capsys.readouterr()
+    rc = bounded(lambda: main(argv), bound)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_stream_reconnects_after_a_stall_and_finalises_complete_outputs(ts_clip, tmp_path, capsys):
+    n_cut, cut = cut_near(ts_clip, 0.4)
+    with Server(ts_clip["data"], [("stall", cut), ("serve", None)]) as srv:
+        rc, out, err = run_main(["stream", "--source", srv.url, "--timeout", "1", "--reconnect", "5", "--no-realtime", *outputs(tmp_path), "-q", "--json"], capsys)
+    assert rc == 0, err
+    assert len(srv.requests) == 2
+    assert "lost the source" in err and "no data for 1 s (timed out)" in err and f"frames go on from {n_cut}" in err
+    summary = json.loads(out)
+    assert summary["frames"] == n_cut + FRAMES and summary["errors"] == []
+    check_outputs(tmp_path, n_cut + FRAMES)
+
+
+def test_stream_gives_up_after_reconnect_seconds_with_complete_outputs(ts_clip, tmp_path, capsys):
+    n_cut, cut = cut_near(ts_clip, 0.5)
+    with Server(ts_clip["data"], [("cut", cut), ("status", 503)]) as srv:
+        rc, out, err = run_main(["stream", "--source", srv.url, "--timeout", "2", "--reconnect", "2", "--no-realtime", *outputs(tmp_path), "-q", "--json"], capsys)
+    assert rc == 1
+    assert len(srv.requests) == 1 + 3
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("arstream: error: lost the source") and "gave up after 3 reconnection attempts" in last and "outputs finalised" in last
+    assert json.loads(out)["frames"] == n_cut  # the summary still comes
+    check_outputs(tmp_path, n_cut)
+
+
+def test_ctrl_c_while_reconnecting_finalises_the_outputs(ts_clip, tmp_path):
+    n_cut, cut = cut_near(ts_clip, 0.5)
+    with Server(ts_clip["data"], [("cut", cut), ("status", 503)]) as srv:
+        proc = subprocess.Popen(arstream_cmd("--source", srv.url, "--timeout", "2", "--reconnect", "20", "--no-realtime", *outputs(tmp_path), "-q"), stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT)
+        lines: list[str] = []
+        reader = threading.Thread(target=lambda: lines.extend(proc.stderr), daemon=True)
+        reader.start()
+        try:
+            deadline = time.monotonic() + 25  # start-up (imports, kernels, GL) then the drop and attempt 1
+            while not any("reconnection attempt 1" in ln for ln in lines) and time.monotonic() < deadline and proc.poll() is None:
+                time.sleep(0.05)
+            assert any("reconnection attempt 1" in ln for ln in lines), "".join(lines)
+            t_int = time.monotonic()
+            proc.send_signal(signal.SIGINT)
+            rc = proc.wait(timeout=10)
+            took = time.monotonic() - t_int
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        reader.join(5)
+    assert rc == 130, "".join(lines)
+    assert took < 5  # the waits between attempts poll for a stop
+    assert f"interrupted ({n_cut} frames" in "".join(lines)
+    check_outputs(tmp_path, n_cut)
+
+
+def test_stream_help_documents_the_options(capsys):
+    from arstream.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["stream", "--help"])
+    h = " ".join(capsys.readouterr().out.split())
+    assert "--reconnect SECONDS" in h and "--timeout SECONDS" in h
+    assert "(default: 30)" in h and "(default: 10)" in h and "0 = no reconnection" in h
+
+
+@pytest.mark.parametrize(
+    "option, message",
+    [
+        (["--reconnect", "-1"], "argument --reconnect: must be 0 (no reconnection) or a number of seconds, got '-1'"),
+        (["--reconnect", "soon"], "argument --reconnect: must be 0 (no reconnection) or a number of seconds, got 'soon'"),
+        (["--timeout", "0"], "argument --timeout: must be a number of seconds > 0, got '0'"),
+        (["--timeout", "inf"], "argument --timeout: must be a number of seconds > 0, got 'inf'"),
+    ],
+)
+def test_stream_rejects_bad_reconnect_options(option, message, capsys):
+    from arstream.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["stream", "--source", "http://127.0.0.1:9/x.ts", *option])
+    assert e.value.code == 2
+    assert message in capsys.readouterr().err

@@ -11,13 +11,13 @@ import os
 import sys
 from typing import Callable
 
-from arstream.errors import InputError
+from arstream.errors import InputError, SourceLost
 from arstream.pipeline.encode import EncodeStage
 from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Stage, ThreadedStage
 from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, TrackStage
 from arstream.pipeline.summary import Summary
-from arstream.source import VideoSource
+from arstream.source import DEFAULT_RECONNECT, DEFAULT_TIMEOUT, VideoSource, open_live
 
 __all__ = ["process", "render_clip", "stream", "DEFAULT_LAG", "WORKER_NICE"]
 
@@ -283,6 +283,8 @@ def stream(
     handle_signals: bool = True,
     warn: Callable[[str], None] | None = None,
     analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+    reconnect: float = DEFAULT_RECONNECT,
+    timeout: float = DEFAULT_TIMEOUT,
 ) -> Summary:
     """Live mode: causal tracking (no look-ahead) of a file, URL or capture device,
     logged to rerun. Mirrors ``arstream stream --source SRC [--rerun ...] [--realtime]``.
@@ -297,8 +299,22 @@ def stream(
     scene, output, cameras_out : as :func:`process` (output and cameras optional)
     bind, port : address of the rerun gRPC server for ``serve``
     jpeg_quality : quality of the JPEG frames sent to rerun
-    warn : callable(str) for non-fatal problems (unreachable viewer); default stderr
+    warn : callable(str) for non-fatal problems (unreachable viewer, a network
+        source lost and reconnected); default stderr
     analysis_width : as :func:`process`
+    reconnect, timeout : a URL source that sends nothing for ``timeout`` seconds
+        or whose connection fails is opened again for up to ``reconnect``
+        seconds (0: not at all); its frames go on with consecutive numbers
+        and timestamps (see :class:`arstream.source.ReconnectingSource`)
+
+    Raises
+    ------
+    SourceLost
+        The URL source was lost and did not come back in time; raised after
+        the outputs were finalised with every frame read, with the run's
+        :class:`Summary` as ``summary``.
+    Interrupted
+        Stopped by a signal, after the outputs were finalised.
     """
     from arstream.live import RerunLogger, parse_rerun
 
@@ -306,7 +322,7 @@ def stream(
     mode = parse_rerun(rerun)
     _check_outputs(source, output=output, cameras_out=cameras_out, max_frames=max_frames)
     _load_kernels()
-    with _open(source, format=format, options=options) as src:
+    with open_live(source, format=format, options=options, reconnect=reconnect, timeout=timeout, report=warn) as src:
         W, H = src.width, src.height
         rt = src.is_live if realtime is None else bool(realtime)
         an = Analysis(W, H, analysis_width)
@@ -336,4 +352,8 @@ def stream(
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
-        return pipe.run(handle_signals=handle_signals)
+        try:
+            return pipe.run(handle_signals=handle_signals)
+        except SourceLost as exc:  # the outputs are finalised: say what they hold
+            exc.summary = pipe.summary
+            raise
