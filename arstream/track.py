@@ -53,7 +53,9 @@ from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
-from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
+from arstream.detect.paint import paint_lines, paint_mask
+from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, cameras_from_line_pairs, explained_share, refine_camera, solve_from_circle
+from arstream.support import bright_mask, line_support, marking_points
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
@@ -85,6 +87,9 @@ class TrackerConfig:
     sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
     sweep_peak: float = 1.2  # its support over the best support half the range away
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
+    paint_every: int = 8  # while lost, the paint initialiser (real frames) runs at most every this many frames
+    paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
+    min_support: float = 0.6  # least line support (DESIGN.md 5b) of a camera that is output (and drawn)
 
 
 def _hump_centre(x: np.ndarray, y: np.ndarray, k: int) -> float | None:
@@ -226,6 +231,81 @@ def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *
     return best
 
 
+class PaintView:
+    """What the paint initialiser sees of a frame (:func:`paint_view`).
+
+    Attributes
+    ----------
+    mask : (H, W) uint8, white paint (:func:`arstream.detect.paint.paint_mask`), frame pixels
+    index : LineIndex over the paint pixels (frame pixels; every other row and
+        column above 1000 px wide)
+    bright : (H, W) bool, the line-support mask of the frame (:func:`arstream.support.bright_mask`)
+    lines : list of DetectedLine, the paint's straight lines, most support
+        first (found on first access: tracking needs only the pixels)
+    """
+
+    def __init__(self, image: np.ndarray, mask: np.ndarray, index: LineIndex, bright: np.ndarray):
+        self.image, self.mask, self.index, self.bright = image, mask, index, bright
+        self._lines: list | None = None
+
+    @property
+    def lines(self) -> list:
+        if self._lines is None:
+            self._lines = paint_lines(self.mask, self.image)
+        return self._lines
+
+
+def paint_view(image: np.ndarray, detections) -> PaintView:
+    """The paint mask, a nearest-pixel index over it and the line-support mask
+    of one BGR frame (the pitch region from ``detections``)."""
+    H, W = image.shape[:2]
+    region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
+    mask = paint_mask(image, region)
+    step = 2 if W > 1000 else 1
+    ys, xs = np.nonzero(mask[::step, ::step])
+    index = LineIndex(np.column_stack([xs, ys]).astype(np.float64) * step)
+    bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+    return PaintView(image, mask, index, bright)
+
+
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True) -> tuple[Refinement | None, float | None]:
+    """A camera for a real frame from its paint alone (no temporal help).
+
+    Line hypotheses (:func:`arstream.solve.cameras_from_line_pairs`, scored on
+    the paint grown by about 2.5 px at 1280 wide) are refined against the
+    paint pixels, with one radial coefficient when the view has enough
+    markings; the refined camera with the highest line support
+    (:func:`arstream.support.line_support`) wins. Returns (refinement, its
+    support), or (None, None) when no hypothesis was found.
+    """
+    W, H = size
+    r = max(2, int(round(2.5 * W / 1280)))
+    near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+    lines = view.lines[:10]
+    if len(lines) < 4:
+        return None, None
+    hy = cameras_from_line_pairs([dl.line for dl in lines], [dl.endpoints for dl in lines], size, principal_point, near, pitch, keep=keep)
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    points = marking_points(pitch)
+    best, best_s = None, -1.0
+    for cam in hy.cameras:
+        try:
+            rf = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
+            if estimate_k1 and rf.n_visible >= 150:
+                rk = refine_camera(rf.camera, view.index, size, model, estimate_k1=True, radii=(4.0, 2.5))
+                sk = line_support(rk.camera, view.bright, points).share or 0.0
+            else:
+                rk, sk = None, -1.0
+        except ValueError:
+            continue
+        s0 = line_support(rf.camera, view.bright, points).share or 0.0
+        if sk > s0 + 0.01:
+            rf, s0 = rk, sk
+        if s0 > best_s:
+            best, best_s = rf, s0
+    return (best, best_s) if best is not None else (None, None)
+
+
 def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
     """Share of the model samples visible through ``cam`` (at most about 300 of
     them, evenly taken) with a detected line pixel within ``radius``."""
@@ -343,7 +423,12 @@ class Tracker:
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0}
+        self._image: np.ndarray | None = None  # the frame being solved (for the line-support gate)
+        self._unsupported = 0  # consecutive frames whose camera the paint did not back
+        self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
+        self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
+        self._bright: tuple[int, np.ndarray] | None = None  # (frame, line-support mask) of the last frame
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -442,7 +527,11 @@ class Tracker:
         :func:`arstream.imaging.grey_thumbnail`, when the caller has it (the shot-cut
         test; by default made from ``image``). Give it for every frame of a
         clip or for none: the test compares consecutive thumbnails."""
-        est = self._solve(index, pts, image, detections, thumbnail)
+        self._image = image
+        try:
+            est = self._solve(index, pts, image, detections, thumbnail)
+        finally:
+            self._image = None
         self.stats[est.status] += 1
         kf = self._kf
         self._motion_last = None if kf is None else float(abs(kf.x[1, 0]) * np.exp(kf.x[6, 0]) / self.fps)
@@ -508,7 +597,12 @@ class Tracker:
         if det is None or not getattr(det, "pitch_visible", True) or len(det.line_points) < 30:
             self.reset()
             return CameraEstimate.lost(index, pts, reason="no pitch")
-        lidx = LineIndex(det.line_points)
+        view = None
+        if self._paint and image is not None:
+            view = paint_view(image, det)
+            lidx = LineIndex(np.concatenate([det.line_points, view.index.points]))
+        else:
+            lidx = LineIndex(det.line_points)
         kf = self._kf
         pred_cam = None
         meas: Refinement | None = None
@@ -596,6 +690,19 @@ class Tracker:
                         pass
                 if self._kf is not None and pred_cam is not None:
                     self._kf = None  # re-anchored: restart the filter from this measurement
+        if meas is None and image is not None and index - self._paint_at >= self.cfg.paint_every:
+            # real frames: faint, thin lines the ridge detector misses; straight
+            # lines of the white paint, scored against the frame (costly: not every frame)
+            self._paint_at = index
+            view = view or paint_view(image, det)
+            r, sup = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch)
+            if r is not None and sup >= self.cfg.paint_accept:
+                meas, source = r, "paint"
+                self.stats["paint_inits"] += 1
+                self._paint = True
+                self._kf = None
+                if self.centre is not None and np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
+                    self.reset(keep_centre=False)
         if meas is None:
             if self._kf is not None and self._coast < self.cfg.max_coast and pred_cam is not None:
                 self._coast += 1
@@ -751,6 +858,19 @@ class Tracker:
         return replace(r, camera=cam)
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
+        if self._image is not None and cam is not None:
+            # never draw with a wrong camera: the frame's paint must back it (DESIGN.md 5b)
+            if self._bright is None or self._bright[0] != index:
+                self._bright = (index, bright_mask(cv2.cvtColor(self._image, cv2.COLOR_BGR2GRAY)))
+            sup = line_support(cam, self._bright[1], marking_points(self.pitch)).share
+            info["support"] = sup
+            if sup is not None and sup < self.cfg.min_support:
+                self.stats["unsupported"] += 1
+                self._unsupported += 1
+                if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
+                    self.reset(keep_centre=False)
+                return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f})")
+            self._unsupported = 0
         info["centre"] = np.array(centre, dtype=np.float64)
         if self.lag and self._kf is not None and filtered:
             kf = self._kf
@@ -785,10 +905,17 @@ class Tracker:
     _k1_f: float | None = None
 
 
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True) -> CameraEstimate:
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
-    enough line support). Returns a "lost" estimate when nothing fits."""
+    enough line support). Returns a "lost" estimate when nothing fits.
+
+    With the frame (``image``, BGR, the detections' size) the camera must also
+    have a line support (:func:`arstream.support.line_support`) of at least
+    ``min_support``; when the detector's lines give none that does, the paint
+    initialiser (:func:`initialise_from_paint`, for real broadcast frames) is
+    tried. The support is in ``info["support"]``.
+    """
     W, H = size
     pitch = pitch or PitchModel()
     pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
@@ -797,13 +924,29 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         return CameraEstimate.lost(0, 0.0, reason="no pitch")
     index = LineIndex(detections.line_points)
     r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
-    if r is None or r.confidence < TrackerConfig.init_accept:
-        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
-    if estimate_k1 and r.n_visible >= 250:
+    if r is not None and r.confidence < TrackerConfig.init_accept:
+        r = None
+    if r is not None and estimate_k1 and r.n_visible >= 250:
         try:
             rk = refine_camera(r.camera, index, size, model, estimate_k1=True, radii=(4.0, 2.5))
             if rk.confidence >= r.confidence - 0.01:
                 r = rk
         except ValueError:
             pass
-    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, {"rms": r.rms, "n_visible": r.n_visible})
+    sup = None
+    if image is not None:
+        bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+        points = marking_points(pitch)
+        sup = None if r is None else line_support(r.camera, bright, points).share
+        if sup is None or sup < min_support:
+            rp, sp = initialise_from_paint(paint_view(image, detections), size, principal_point=pp, pitch=pitch)
+            if rp is not None and (sup is None or sp > sup):
+                r, sup = rp, sp
+        if r is not None and (sup is None or sup < min_support):
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f})")
+    if r is None:
+        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
+    info = {"rms": r.rms, "n_visible": r.n_visible}
+    if sup is not None:
+        info["support"] = sup
+    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, info)

@@ -443,6 +443,66 @@ def camera_from_homography(H_img_from_pitch, principal_point, *, aspect: float =
     return Camera(K=intrinsic_matrix(float(poses.focal[0]), cx, cy, aspect), R=poses.R[0], t=poses.t[0])
 
 
+def camera_near_homography(H_img_from_pitch, principal_point, XY, *, aspect: float = 1.0) -> Camera:
+    """The camera (known principal point, square pixels up to ``aspect``, no
+    skew) whose pitch-to-image map is closest to a homography on given pitch points.
+
+    A homography from four line correspondences has eight degrees of freedom,
+    a camera with a known principal point seven: :func:`camera_from_homography`
+    reads the camera off two columns of ``H`` and can land far from the
+    picture ``H`` draws. This fits the camera to that picture instead: it
+    minimises the pixel distances between ``K [r1 r2 t] (X, Y, 1)`` and
+    ``H (X, Y, 1)`` over the points ``XY`` (Levenberg-Marquardt on rotation
+    vector, centre and log focal, from the decomposition).
+
+    Parameters
+    ----------
+    H_img_from_pitch : (3, 3) pitch (X, Y, 1), metres -> pixels
+    principal_point : (2,) pixels
+    XY : (N, 2) pitch points, metres, N >= 4 (e.g. those ``H`` maps into the frame)
+    aspect : float, ``fy / fx``
+
+    Returns
+    -------
+    Camera
+
+    Raises
+    ------
+    ValueError
+        As :func:`camera_from_homography`, or fewer than 4 points.
+    """
+    import scipy.optimize
+    from scipy.spatial.transform import Rotation
+
+    XY = np.asarray(XY, dtype=np.float64).reshape(-1, 2)
+    if len(XY) < 4:
+        raise ValueError(f"need at least 4 pitch points, got {len(XY)}")
+    H = np.asarray(H_img_from_pitch, dtype=np.float64)
+    cam0 = camera_from_homography(H, principal_point, aspect=aspect)
+    Xh = np.column_stack([XY, np.ones(len(XY))]) @ H.T
+    target = Xh[:, :2] / Xh[:, 2:]
+    X3 = np.column_stack([XY, np.zeros(len(XY))])
+    cx, cy = np.asarray(principal_point, dtype=np.float64)
+    rv0 = Rotation.from_matrix(cam0.R).as_rotvec()
+
+    def camera(p):
+        R = Rotation.from_rotvec(p[:3]).as_matrix()
+        return Camera.trusted(intrinsic_matrix(math.exp(p[6]), cx, cy, aspect), R, -R @ p[3:6])
+
+    def residual(p):
+        return (camera(p).project(X3) - target).ravel()
+
+    p0 = np.concatenate([rv0, cam0.center, [math.log(cam0.focal)]])
+    with np.errstate(all="ignore"):
+        r0 = residual(p0)
+    if not np.all(np.isfinite(r0)):
+        return cam0
+    sol = scipy.optimize.least_squares(residual, p0, method="lm", max_nfev=200)
+    if not (np.all(np.isfinite(sol.x)) and sol.cost <= 0.5 * float(r0 @ r0)):
+        return cam0
+    return camera(sol.x)
+
+
 def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:
     """``R_cam_from_world`` (3, 3) for pan, tilt, roll (radians).
 

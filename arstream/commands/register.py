@@ -36,7 +36,7 @@ def run(args) -> int:
     image = read_frame(args.input, args.frame)
     H, W = image.shape[:2]
     det = detect(image)
-    est = register_frame(det, (W, H))
+    est = register_frame(det, (W, H), image=image)
     rec = est.to_record()
     rec.pop("frame", None)
     rec.pop("pts", None)
