@@ -53,14 +53,13 @@ from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
-from arstream.detect.paint import paint_lines, paint_mask
-from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_from_line_hypotheses, cameras_from_line_pairs, explained_share, refine_camera, solve_from_circle
+from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
+from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
 from arstream.support import bright_mask, line_support, marking_points
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
-from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
 
-__all__ = ["Tracker", "TrackerConfig", "initialise_camera"]
+__all__ = ["Tracker", "TrackerConfig"]
 
 
 @dataclass
@@ -71,7 +70,7 @@ class TrackerConfig:
     accept_low: float = 0.55  # ... or this much, when the detected line pixels lie on the markings:
     min_explained: float = 0.9  # share of them within 2.5 px of the projected markings
     trusted: float = 0.9  # support share of a measurement that no motion gate rejects (fast pans)
-    init_accept: float = 0.6  # least support share to accept an initialisation
+    init_accept: float = INIT_ACCEPT  # least support share to accept an initialisation
     max_coast: int = 12  # frames carried by the filter without a measurement
     gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
     cut_threshold: float = 28.0  # mean absolute thumbnail change (grey levels) that signals a cut
@@ -153,184 +152,6 @@ def _wrap(a: float) -> float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
-def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
-    """A camera for a frame without temporal help (the initialiser).
-
-    Tries, in order: the closed-form pole-polar solution from each candidate
-    centre-circle ellipse with each detected line that crosses it (the
-    halfway line); then homographies from line correspondences (penalty-area
-    views). Every candidate is refined against all markings; the one with the
-    most support wins — with a ``prior`` camera (the filter's prediction),
-    candidates far from it (centre, focal length) are penalised, since with few
-    markings in view (long focal lengths) several cameras explain them equally
-    well. Returns None when nothing is found.
-    """
-    W, H = size
-    cands: list[Camera] = []
-    lines = list(getattr(detections, "lines", []) or [])
-    for ell in list(getattr(detections, "ellipses", []) or [])[:2]:
-        E = ell.conic
-        crossing = []
-        for dl in lines[:8]:
-            try:
-                intersect_line_conic(E, dl.line)
-            except ValueError:
-                continue
-            crossing.append(dl)
-        for dl in crossing[:3]:
-            try:
-                sols = solve_from_circle(E, dl.line, principal_point, image_width=W)
-            except ValueError:
-                continue
-            cands.extend(s.camera for s in sols[:2])
-    best: Refinement | None = None
-
-    def merit(r: Refinement) -> float:
-        m = r.confidence - 1e-3 * r.rms
-        if prior is not None:
-            m -= 0.15 * min(1.0, np.linalg.norm(r.camera.center - prior.center) / 10.0)
-            m -= 0.15 * min(1.0, abs(np.log(r.camera.focal / prior.focal)) / 0.2)
-        return m
-
-    def consider(cam: Camera, cheap_first: bool) -> None:
-        nonlocal best
-        try:
-            r = refine_camera(cam, index, size, model, center=centre, estimate_k1=estimate_k1)
-        except ValueError:
-            return
-        if best is None or merit(r) > merit(best):
-            best = r
-
-    def with_k1(r: Refinement | None) -> Refinement | None:
-        """Wide zoom lenses bend lines: when the best candidate explains the markings only
-        partly, let one radial coefficient join the refinement."""
-        if r is None or r.confidence >= 0.9:
-            return r
-        try:
-            rk = refine_camera(r.camera, index, size, model, center=centre, estimate_k1=True, radii=(8.0, 4.0, 2.5))
-        except ValueError:
-            return r
-        return rk if merit(rk) > merit(r) else r
-
-    for cam in cands:
-        consider(cam, False)
-    best = with_k1(best)
-    if best is not None and (best.confidence >= 0.75 or (best.confidence >= 0.55 and explained_share(best.camera, index, size, model) >= 0.9)):
-        return best  # (the line hypotheses below cost far more)
-    # line correspondences: score every hypothesis by its unrefined support, refine the best few
-    hyps = cameras_from_line_hypotheses([dl.line for dl in lines[:10]], size, principal_point, pitch)
-    if hyps:
-        scored = []
-        for cam in hyps:
-            inside = _support(cam, index, size, model)
-            scored.append((inside, cam))
-        scored.sort(key=lambda s: -s[0])
-        for _, cam in scored[:6]:
-            consider(cam, True)
-        best = with_k1(best)
-    return best
-
-
-class PaintView:
-    """What the paint initialiser sees of a frame (:func:`paint_view`).
-
-    Attributes
-    ----------
-    mask : (H, W) uint8, white paint (:func:`arstream.detect.paint.paint_mask`), frame pixels
-    index : LineIndex over the paint pixels (frame pixels; every other row and
-        column above 1000 px wide)
-    bright : (H, W) bool, the line-support mask of the frame (:func:`arstream.support.bright_mask`)
-    lines : list of DetectedLine, the paint's straight lines, most support
-        first (found on first access: tracking needs only the pixels)
-    """
-
-    def __init__(self, image: np.ndarray, mask: np.ndarray, index: LineIndex, bright: np.ndarray):
-        self.image, self.mask, self.index, self.bright = image, mask, index, bright
-        self._lines: list | None = None
-
-    @property
-    def lines(self) -> list:
-        if self._lines is None:
-            self._lines = paint_lines(self.mask, self.image)
-        return self._lines
-
-
-def paint_view(image: np.ndarray, detections) -> PaintView:
-    """The paint mask, a nearest-pixel index over it and the line-support mask
-    of one BGR frame (the pitch region from ``detections``)."""
-    H, W = image.shape[:2]
-    region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
-    mask = paint_mask(image, region)
-    step = 2 if W > 1000 else 1
-    ys, xs = np.nonzero(mask[::step, ::step])
-    index = LineIndex(np.column_stack([xs, ys]).astype(np.float64) * step)
-    bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
-    return PaintView(image, mask, index, bright)
-
-
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True) -> tuple[Refinement | None, float | None]:
-    """A camera for a real frame from its paint alone (no temporal help).
-
-    Line hypotheses (:func:`arstream.solve.cameras_from_line_pairs`, scored on
-    the paint grown by about 2.5 px at 1280 wide) are refined against the
-    paint pixels, with one radial coefficient when the view has enough
-    markings; the refined camera with the highest line support
-    (:func:`arstream.support.line_support`) wins. Returns (refinement, its
-    support), or (None, None) when no hypothesis was found.
-    """
-    W, H = size
-    r = max(2, int(round(2.5 * W / 1280)))
-    near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
-    lines = view.lines[:10]
-    if len(lines) < 4:
-        return None, None
-    hy = cameras_from_line_pairs([dl.line for dl in lines], [dl.endpoints for dl in lines], size, principal_point, near, pitch, keep=keep)
-    model = ModelSamples.from_pitch(pitch, 0.5)
-    points = marking_points(pitch)
-    best, best_s = None, -1.0
-    for cam in hy.cameras:
-        try:
-            rf = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
-            if estimate_k1 and rf.n_visible >= 150:
-                rk = refine_camera(rf.camera, view.index, size, model, estimate_k1=True, radii=(4.0, 2.5))
-                sk = line_support(rk.camera, view.bright, points).share or 0.0
-            else:
-                rk, sk = None, -1.0
-        except ValueError:
-            continue
-        s0 = line_support(rf.camera, view.bright, points).share or 0.0
-        if sk > s0 + 0.01:
-            rf, s0 = rk, sk
-        if s0 > best_s:
-            best, best_s = rf, s0
-    return (best, best_s) if best is not None else (None, None)
-
-
-def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
-    """Share of the model samples visible through ``cam`` (at most about 300 of
-    them, evenly taken) with a detected line pixel within ``radius``."""
-    from arstream.solve import _visible
-
-    inside, px = _visible(cam, model, size)
-    return float(_supports(px[None], inside[None], index, radius, 300)[0])
-
-
-def _supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: float, max_samples: int) -> np.ndarray:
-    """:func:`_support` of D views at once, from their model sample pixels (D, N, 2)
-    and in-view masks (D, N): one nearest-neighbour query for all; 0 for a view with
-    fewer than 20 samples in view."""
-    picks = []
-    for j in range(len(inside)):
-        idx = np.flatnonzero(inside[j])
-        picks.append(idx[:: max(len(idx) // max_samples, 1)] if len(idx) >= 20 else idx[:0])
-    counts = np.array([len(q) for q in picks])
-    if not counts.any():
-        return np.zeros(len(inside))
-    d, _ = index.nearest(np.concatenate([px[j, q] for j, q in enumerate(picks)]), radius)
-    hits = np.bincount(np.repeat(np.arange(len(inside)), counts), weights=np.isfinite(d), minlength=len(inside))
-    return hits / np.maximum(counts, 1)
-
-
 def _panned_views(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, points: np.ndarray, size, margin: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     """The model samples ``points`` (N, 3) through ``cam`` turned in pan about the tripod ``centre`` by
     each of ``offsets_px`` (D,) (pixels at its focal length; tilt, roll, f and the
@@ -389,9 +210,12 @@ class Tracker:
     pitch : PitchModel (default 105 x 68 m)
     principal_point : (2,) pixels; default the image centre
     config : TrackerConfig
+    support_reach : int, the line-support test's tolerance (pixels of the
+        frames given; 2 at the frame's own resolution, 1 on frames scaled to
+        half of it, so that the test matches DESIGN.md 5b's 2 px of the frame)
     """
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2):
         if width <= 0 or height <= 0:
             raise ValueError(f"invalid frame size {width}x{height}")
         if lag < 0:
@@ -425,6 +249,8 @@ class Tracker:
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
         self._image: np.ndarray | None = None  # the frame being solved (for the line-support gate)
         self._unsupported = 0  # consecutive frames whose camera the paint did not back
+        self._supported_at = -(10**9)  # the last frame whose camera the paint backed
+        self.support_reach = int(support_reach)
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: tuple[int, np.ndarray] | None = None  # (frame, line-support mask) of the last frame
@@ -775,7 +601,7 @@ class Tracker:
         base = camera_from_ptz(self.centre, ptz, self.pp, dist=dist)
         pts = _window_points(base, self.centre, offsets * step_px, self.model.points, self.size)
         px, inside = _panned_views(base, self.centre, offsets * step_px, pts, self.size)
-        support = _supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
+        support = view_supports(px, inside, lidx, 0.5 * step_px + 1.0, 150)
         k = int(np.argmax(support))
         away = np.abs(offsets - offsets[k]) > n // 2  # beyond the peak's own hump
         # markings along the pan (the touchlines in a horizontal whip) match at every
@@ -861,10 +687,14 @@ class Tracker:
         if self._image is not None and cam is not None:
             # never draw with a wrong camera: the frame's paint must back it (DESIGN.md 5b)
             if self._bright is None or self._bright[0] != index:
-                self._bright = (index, bright_mask(cv2.cvtColor(self._image, cv2.COLOR_BGR2GRAY)))
+                self._bright = (index, bright_mask(cv2.cvtColor(self._image, cv2.COLOR_BGR2GRAY), reach=self.support_reach))
             sup = line_support(cam, self._bright[1], marking_points(self.pitch)).share
             info["support"] = sup
-            if sup is not None and sup < self.cfg.min_support:
+            if sup is not None and sup >= self.cfg.min_support:
+                self._supported_at = index
+            elif sup is not None and index - self._supported_at > self.cfg.max_coast:
+                # (within max_coast frames of a supported one the filter is still
+                # trusted: blur in a fast pan hides the paint, not the camera)
                 self.stats["unsupported"] += 1
                 self._unsupported += 1
                 if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
@@ -903,50 +733,3 @@ class Tracker:
                     self._k1_f = r.camera.focal
 
     _k1_f: float | None = None
-
-
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7) -> CameraEstimate:
-    """The camera of a single still (no temporal help): initialise from the centre
-    circle or from line correspondences, then refine (with k1 when the view has
-    enough line support). Returns a "lost" estimate when nothing fits.
-
-    With the frame (``image``, BGR, the detections' size) the camera must also
-    have a line support (:func:`arstream.support.line_support`) of at least
-    ``min_support``; when the detector's lines give none that does, the paint
-    initialiser (:func:`initialise_from_paint`, for real broadcast frames) is
-    tried. The support is in ``info["support"]``.
-    """
-    W, H = size
-    pitch = pitch or PitchModel()
-    pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
-    model = ModelSamples.from_pitch(pitch, 0.5)
-    if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
-        return CameraEstimate.lost(0, 0.0, reason="no pitch")
-    index = LineIndex(detections.line_points)
-    r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
-    if r is not None and r.confidence < TrackerConfig.init_accept:
-        r = None
-    if r is not None and estimate_k1 and r.n_visible >= 250:
-        try:
-            rk = refine_camera(r.camera, index, size, model, estimate_k1=True, radii=(4.0, 2.5))
-            if rk.confidence >= r.confidence - 0.01:
-                r = rk
-        except ValueError:
-            pass
-    sup = None
-    if image is not None:
-        bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
-        points = marking_points(pitch)
-        sup = None if r is None else line_support(r.camera, bright, points).share
-        if sup is None or sup < min_support:
-            rp, sp = initialise_from_paint(paint_view(image, detections), size, principal_point=pp, pitch=pitch)
-            if rp is not None and (sup is None or sp > sup):
-                r, sup = rp, sp
-        if r is not None and (sup is None or sup < min_support):
-            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f})")
-    if r is None:
-        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
-    info = {"rms": r.rms, "n_visible": r.n_visible}
-    if sup is not None:
-        info["support"] = sup
-    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, info)

@@ -1,4 +1,4 @@
-"""Benchmark: the camera initialiser (``arstream.track.initialise_camera``), warm.
+"""Benchmark: the camera initialiser (``arstream.initialise.initialise_camera``), warm.
 
     .venv/bin/python bench/initialiser_speed.py [--presets wide,zoom,hard,penalty,cut]
                                                 [--frames 250] [--repeats 15]
@@ -29,6 +29,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import arstream.initialise as initialise  # noqa: E402
 import arstream.track as track  # noqa: E402
 from arstream.detect import Detector  # noqa: E402
 from arstream.kernels import warm_up  # noqa: E402
@@ -68,7 +69,7 @@ def calls_of(clip: Path) -> list[tuple[tuple, dict]]:
 def timed(calls, repeats: int) -> dict[str, float]:
     """Median milliseconds per call: the whole initialiser and its parts."""
     spent = collections.Counter()
-    originals = {name: getattr(track, name) for name in PARTS}
+    originals = {name: getattr(initialise, name) for name in PARTS}
 
     def wrap(name, fn):
         def inner(*a, **k):
@@ -82,19 +83,19 @@ def timed(calls, repeats: int) -> dict[str, float]:
 
     rows = collections.defaultdict(list)
     for name, fn in originals.items():
-        setattr(track, name, wrap(name, fn))
+        setattr(initialise, name, wrap(name, fn))
     try:
         for a, k in calls:
             for _ in range(repeats):
                 spent.clear()
                 t0 = time.perf_counter()
-                track.initialise_camera(*a, **k)
+                initialise.initialise_camera(*a, **k)
                 rows["total"].append((time.perf_counter() - t0) * 1e3)
                 for name in PARTS:
                     rows[name].append(spent[name] * 1e3)
     finally:
         for name, fn in originals.items():
-            setattr(track, name, fn)
+            setattr(initialise, name, fn)
     return {name: statistics.median(v) for name, v in rows.items()}
 
 

@@ -10,9 +10,11 @@ import pytest
 from conftest import truth_detections
 
 from arstream.evaluate import score
-from arstream.solve import LineIndex, ModelSamples, cameras_from_line_hypotheses, explained_share, refine_camera, solve_from_circle
+from arstream.solve import LineIndex, ModelSamples, explained_share, refine_camera, solve_from_circle
+from arstream.solve_lines import cameras_from_line_hypotheses
 from arstream.synth import SynthClip
-from arstream.track import Tracker, TrackerConfig, initialise_camera, widest_line
+from arstream.initialise import initialise_camera
+from arstream.track import Tracker, TrackerConfig, widest_line
 from geometry.camera import PTZ, camera_from_ptz, ptz_from_camera
 from geometry.conics import conic_from_ellipse, Ellipse
 from geometry.homography import transfer_conic, transfer_lines

@@ -30,7 +30,7 @@ def run(args) -> int:
 
     from arstream.detect import detect
     from arstream.framein import read_frame
-    from arstream.track import register_frame
+    from arstream.initialise import register_frame
     from geometry.pitch import PitchModel
 
     image = read_frame(args.input, args.frame)

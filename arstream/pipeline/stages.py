@@ -217,7 +217,8 @@ class TrackStage(Stage):
         self.analysis = analysis or Analysis(width, height)
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
-            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag) if cls is not None else None
+            reach = max(1, int(round(2.0 / self.analysis.sx)))  # the line-support test's 2 px of the frame
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach) if cls is not None else None
         self.tracker = tracker
         self.available = tracker is not None
         self.lag = int(lag)

@@ -1,0 +1,262 @@
+"""A camera for a frame without temporal help: the initialisers, and the
+registration of a single still.
+
+* :func:`initialise_camera` — from the detector's markings: the closed-form
+  pole-polar solution from the centre circle and the halfway line
+  (:func:`arstream.solve.solve_from_circle`, the first choice when the
+  circle is in view), else line correspondences
+  (:func:`arstream.solve_lines.cameras_from_line_hypotheses`); every
+  candidate refined against all markings.
+* :func:`initialise_from_paint` — for real broadcast frames, where the
+  ridge detector misses faint, thin lines: straight lines of the white paint
+  (:mod:`arstream.detect.paint`), ordered pairs of each direction
+  (:func:`arstream.solve_lines.cameras_from_line_pairs`), refined against
+  the paint pixels and judged by line support (:mod:`arstream.support`).
+* :func:`register_frame` — one still: both, and the line-support test that
+  keeps a wrong camera from being reported.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from arstream.detect.paint import paint_lines, paint_mask
+from arstream.estimate import CameraEstimate
+from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera, solve_from_circle
+from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs
+from arstream.support import bright_mask, line_support, marking_points
+from geometry.camera import Camera
+from geometry.conics import intersect_line_conic
+from geometry.pitch import PitchModel
+
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "register_frame"]
+
+#: least refinement confidence (share of the model in view with a line pixel
+#: near) of an initialisation from the detector's markings
+INIT_ACCEPT = 0.6
+
+
+def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
+    """A camera for a frame without temporal help (the initialiser).
+
+    Tries, in order: the closed-form pole-polar solution from each candidate
+    centre-circle ellipse with each detected line that crosses it (the
+    halfway line); then homographies from line correspondences (penalty-area
+    views). Every candidate is refined against all markings; the one with the
+    most support wins — with a ``prior`` camera (the filter's prediction),
+    candidates far from it (centre, focal length) are penalised, since with few
+    markings in view (long focal lengths) several cameras explain them equally
+    well. Returns None when nothing is found.
+    """
+    W, H = size
+    cands: list[Camera] = []
+    lines = list(getattr(detections, "lines", []) or [])
+    for ell in list(getattr(detections, "ellipses", []) or [])[:2]:
+        E = ell.conic
+        crossing = []
+        for dl in lines[:8]:
+            try:
+                intersect_line_conic(E, dl.line)
+            except ValueError:
+                continue
+            crossing.append(dl)
+        for dl in crossing[:3]:
+            try:
+                sols = solve_from_circle(E, dl.line, principal_point, image_width=W)
+            except ValueError:
+                continue
+            cands.extend(s.camera for s in sols[:2])
+    best: Refinement | None = None
+
+    def merit(r: Refinement) -> float:
+        m = r.confidence - 1e-3 * r.rms
+        if prior is not None:
+            m -= 0.15 * min(1.0, np.linalg.norm(r.camera.center - prior.center) / 10.0)
+            m -= 0.15 * min(1.0, abs(np.log(r.camera.focal / prior.focal)) / 0.2)
+        return m
+
+    def consider(cam: Camera, cheap_first: bool) -> None:
+        nonlocal best
+        try:
+            r = refine_camera(cam, index, size, model, center=centre, estimate_k1=estimate_k1)
+        except ValueError:
+            return
+        if best is None or merit(r) > merit(best):
+            best = r
+
+    def with_k1(r: Refinement | None) -> Refinement | None:
+        """Wide zoom lenses bend lines: when the best candidate explains the markings only
+        partly, let one radial coefficient join the refinement."""
+        if r is None or r.confidence >= 0.9:
+            return r
+        try:
+            rk = refine_camera(r.camera, index, size, model, center=centre, estimate_k1=True, radii=(8.0, 4.0, 2.5))
+        except ValueError:
+            return r
+        return rk if merit(rk) > merit(r) else r
+
+    for cam in cands:
+        consider(cam, False)
+    best = with_k1(best)
+    if best is not None and (best.confidence >= 0.75 or (best.confidence >= 0.55 and explained_share(best.camera, index, size, model) >= 0.9)):
+        return best  # (the line hypotheses below cost far more)
+    # line correspondences: score every hypothesis by its unrefined support, refine the best few
+    hyps = cameras_from_line_hypotheses([dl.line for dl in lines[:10]], size, principal_point, pitch)
+    if hyps:
+        scored = []
+        for cam in hyps:
+            inside = _support(cam, index, size, model)
+            scored.append((inside, cam))
+        scored.sort(key=lambda s: -s[0])
+        for _, cam in scored[:6]:
+            consider(cam, True)
+        best = with_k1(best)
+    return best
+
+
+class PaintView:
+    """What the paint initialiser sees of a frame (:func:`paint_view`).
+
+    Attributes
+    ----------
+    mask : (H, W) uint8, white paint (:func:`arstream.detect.paint.paint_mask`), frame pixels
+    index : LineIndex over the paint pixels (frame pixels; every other row and
+        column above 1000 px wide)
+    bright : (H, W) bool, the line-support mask of the frame (:func:`arstream.support.bright_mask`)
+    lines : list of DetectedLine, the paint's straight lines, most support
+        first (found on first access: tracking needs only the pixels)
+    """
+
+    def __init__(self, image: np.ndarray, mask: np.ndarray, index: LineIndex, bright: np.ndarray):
+        self.image, self.mask, self.index, self.bright = image, mask, index, bright
+        self._lines: list | None = None
+
+    @property
+    def lines(self) -> list:
+        if self._lines is None:
+            self._lines = paint_lines(self.mask, self.image)
+        return self._lines
+
+
+def paint_view(image: np.ndarray, detections) -> PaintView:
+    """The paint mask, a nearest-pixel index over it and the line-support mask
+    of one BGR frame (the pitch region from ``detections``)."""
+    H, W = image.shape[:2]
+    region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
+    mask = paint_mask(image, region)
+    step = 2 if W > 1000 else 1
+    ys, xs = np.nonzero(mask[::step, ::step])
+    index = LineIndex(np.column_stack([xs, ys]).astype(np.float64) * step)
+    bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+    return PaintView(image, mask, index, bright)
+
+
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True) -> tuple[Refinement | None, float | None]:
+    """A camera for a real frame from its paint alone (no temporal help).
+
+    Line hypotheses (:func:`arstream.solve.cameras_from_line_pairs`, scored on
+    the paint grown by about 2.5 px at 1280 wide) are refined against the
+    paint pixels, with one radial coefficient when the view has enough
+    markings; the refined camera with the highest line support
+    (:func:`arstream.support.line_support`) wins. Returns (refinement, its
+    support), or (None, None) when no hypothesis was found.
+    """
+    W, H = size
+    r = max(2, int(round(2.5 * W / 1280)))
+    near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+    lines = view.lines[:10]
+    if len(lines) < 4:
+        return None, None
+    hy = cameras_from_line_pairs([dl.line for dl in lines], [dl.endpoints for dl in lines], size, principal_point, near, pitch, keep=keep)
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    points = marking_points(pitch)
+    best, best_s = None, -1.0
+    for cam in hy.cameras:
+        try:
+            rf = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
+            if estimate_k1 and rf.n_visible >= 150:
+                rk = refine_camera(rf.camera, view.index, size, model, estimate_k1=True, radii=(4.0, 2.5))
+                sk = line_support(rk.camera, view.bright, points).share or 0.0
+            else:
+                rk, sk = None, -1.0
+        except ValueError:
+            continue
+        s0 = line_support(rf.camera, view.bright, points).share or 0.0
+        if sk > s0 + 0.01:
+            rf, s0 = rk, sk
+        if s0 > best_s:
+            best, best_s = rf, s0
+    return (best, best_s) if best is not None else (None, None)
+
+
+def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
+    """Share of the model samples visible through ``cam`` (at most about 300 of
+    them, evenly taken) with a detected line pixel within ``radius``."""
+    from arstream.solve import _visible
+
+    inside, px = _visible(cam, model, size)
+    return float(view_supports(px[None], inside[None], index, radius, 300)[0])
+
+
+def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: float, max_samples: int) -> np.ndarray:
+    """:func:`_support` of D views at once, from their model sample pixels (D, N, 2)
+    and in-view masks (D, N): one nearest-neighbour query for all; 0 for a view with
+    fewer than 20 samples in view."""
+    picks = []
+    for j in range(len(inside)):
+        idx = np.flatnonzero(inside[j])
+        picks.append(idx[:: max(len(idx) // max_samples, 1)] if len(idx) >= 20 else idx[:0])
+    counts = np.array([len(q) for q in picks])
+    if not counts.any():
+        return np.zeros(len(inside))
+    d, _ = index.nearest(np.concatenate([px[j, q] for j, q in enumerate(picks)]), radius)
+    hits = np.bincount(np.repeat(np.arange(len(inside)), counts), weights=np.isfinite(d), minlength=len(inside))
+    return hits / np.maximum(counts, 1)
+
+
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7) -> CameraEstimate:
+    """The camera of a single still (no temporal help): initialise from the centre
+    circle or from line correspondences, then refine (with k1 when the view has
+    enough line support). Returns a "lost" estimate when nothing fits.
+
+    With the frame (``image``, BGR, the detections' size) the camera must also
+    have a line support (:func:`arstream.support.line_support`) of at least
+    ``min_support``; when the detector's lines give none that does, the paint
+    initialiser (:func:`initialise_from_paint`, for real broadcast frames) is
+    tried. The support is in ``info["support"]``.
+    """
+    W, H = size
+    pitch = pitch or PitchModel()
+    pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
+        return CameraEstimate.lost(0, 0.0, reason="no pitch")
+    index = LineIndex(detections.line_points)
+    r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
+    if r is not None and r.confidence < INIT_ACCEPT:
+        r = None
+    if r is not None and estimate_k1 and r.n_visible >= 250:
+        try:
+            rk = refine_camera(r.camera, index, size, model, estimate_k1=True, radii=(4.0, 2.5))
+            if rk.confidence >= r.confidence - 0.01:
+                r = rk
+        except ValueError:
+            pass
+    sup = None
+    if image is not None:
+        bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+        points = marking_points(pitch)
+        sup = None if r is None else line_support(r.camera, bright, points).share
+        if sup is None or sup < min_support:
+            rp, sp = initialise_from_paint(paint_view(image, detections), size, principal_point=pp, pitch=pitch)
+            if rp is not None and (sup is None or sp > sup):
+                r, sup = rp, sp
+        if r is not None and (sup is None or sup < min_support):
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f})")
+    if r is None:
+        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
+    info = {"rms": r.rms, "n_visible": r.n_visible}
+    if sup is not None:
+        info["support"] = sup
+    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, info)

@@ -1,0 +1,448 @@
+"""Cameras from straight lines: the initialisers for views without the
+centre circle (penalty areas, goal areas, touchlines).
+
+The pitch's straight markings run in two directions. Their images meet in
+two vanishing points, which split the detected lines into two families;
+seen from the main side (Y < 0), each family keeps its order in the image
+(lines along the touchlines bottom to top, lines across them left to right).
+Ordered assignments of image lines to model lines give homographies
+(normalised DLT from lines, :func:`geometry.homography.homographies_from_lines`)
+and, with the principal point, cameras.
+
+* :func:`cameras_from_line_hypotheses` — for the detector's lines on clean
+  pictures: ordered runs of lines, the caller refines and scores.
+* :func:`cameras_from_line_pairs` — for real frames: every ordered pair of
+  lines of each direction against every ordered pair of model lines, each
+  homography scored against the frame's paint (its markings on paint, and
+  the lines on markings), the best extended by guided matching and turned
+  into the nearest camera (:func:`geometry.camera.camera_near_homography`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+import scipy.spatial
+
+from geometry.camera import Camera, camera_near_homography, decompose_homographies, intrinsic_matrix
+from geometry.homography import homographies_from_lines
+from geometry.lines import normalize_line
+from geometry.pitch import PitchModel
+
+__all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses"]
+
+
+def _vp_family(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> tuple[np.ndarray | None, list[int]]:
+    """The vanishing point shared by the most lines (pairwise intersections as
+    hypotheses); returns (point (3,), inlier indices). With ``ends``, "most"
+    is the largest total length of the segments (two long markings outweigh
+    three players' legs).
+
+    With the segments' endpoints ``ends`` (N, 2, 2), a line counts only when the
+    point lies beyond its segment: parallel pitch lines meet on the horizon,
+    above every pitch pixel, never between a segment's ends (where lines of
+    both directions meet at a corner of the markings, which is no vanishing
+    point)."""
+    best_v, best_in = None, []
+    n = len(L)
+    tol = np.sin(np.radians(tol_deg))
+    seg_len = None if ends is None else np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+
+    def weight(idx):
+        return len(idx) if seg_len is None else float(seg_len[idx].sum())
+
+    for a in range(n):
+        for b in range(a + 1, n):
+            v = np.cross(L[a], L[b])
+            if np.linalg.norm(v) < 1e-12:
+                continue
+            v = v / np.linalg.norm(v)
+            inl = []
+            for k in range(n):
+                # direction from the line's midpoint to v versus the line's direction
+                d_line = np.array([L[k][1], -L[k][0]])
+                to_v = v[:2] - v[2] * mids[k]
+                nv = np.linalg.norm(to_v)
+                if not (nv < 1e-12 or abs(d_line[0] * to_v[1] - d_line[1] * to_v[0]) / nv <= tol):
+                    continue
+                if ends is not None and abs(v[2]) > 1e-12:
+                    # the point's place along the line against the segment's ends
+                    t = (v[:2] / v[2] - mids[k]) @ d_line
+                    t0, t1 = sorted(((ends[k] - mids[k]) @ d_line).tolist())
+                    half = 0.5 * (t1 - t0)
+                    if t0 - 0.25 * half < t < t1 + 0.25 * half:
+                        continue
+                inl.append(k)
+            if weight(inl) > weight(best_in):
+                best_v, best_in = v, inl
+    return best_v, best_in
+
+
+def cameras_from_line_hypotheses(
+    lines: list[np.ndarray],
+    size: tuple[int, int],
+    principal_point,
+    pitch: PitchModel | None = None,
+    *,
+    midpoints: np.ndarray | None = None,
+    endpoints: np.ndarray | None = None,
+    max_family: tuple[int, int] = (3, 4),
+    tol_deg: float = 1.5,
+) -> list[Camera]:
+    """Candidate cameras from detected straight lines alone.
+
+    The lines are grouped by their two dominant vanishing points (the pitch's
+    two line directions). Lines parallel to the touchlines look nearly
+    horizontal from the main camera and are ordered near to far (bottom to
+    top); lines parallel to the goal lines are ordered left to right. Ordered
+    assignments of two or more lines of each family to the model's lines of
+    either half give homographies (normalised DLT from lines) and, with the
+    known principal point, cameras. The caller scores them (e.g. by refinement).
+
+    Parameters
+    ----------
+    lines : list of (3,) image lines (pixels), longest first
+    size : (width, height)
+    principal_point : (2,) pixels
+    pitch : PitchModel
+    midpoints : (N, 2) midpoints of the detected segments (pixels); default: the
+        foot of the perpendicular from the image centre (or the middle of
+        ``endpoints``)
+    endpoints : (N, 2, 2) the segments' ends (pixels), optional: a family's
+        vanishing point must lie beyond each of its segments
+    max_family : most lines of each family used
+    tol_deg : angle (degrees) within which a line points at a family's
+        vanishing point
+
+    Returns
+    -------
+    list of Camera (possibly empty): valid ones only (above the pitch, behind the
+    near touchline, plausible focal length).
+    """
+    pitch = pitch or PitchModel()
+    W, H = size
+    L = [normalize_line(np.asarray(l, float)) for l in lines]
+    if len(L) < 4:
+        return []
+    c = np.array([W / 2, H / 2])
+    ends = None if endpoints is None else np.asarray(endpoints, float).reshape(len(L), 2, 2)
+    if midpoints is None:
+        midpoints = ends.mean(axis=1) if ends is not None else np.array([c - (l[:2] @ c + l[2]) * l[:2] for l in L])
+    mids = np.asarray(midpoints, float)
+    v1, in1 = _vp_family(L, mids, tol_deg, ends)
+    rest = [k for k in range(len(L)) if k not in in1]
+    if v1 is None or len(in1) < 2 or len(rest) < 2:
+        return []
+    v2, in2r = _vp_family([L[k] for k in rest], mids[rest], tol_deg, None if ends is None else ends[rest])
+    in2 = [rest[k] for k in in2r]
+    if len(in2) < 2:
+        return []
+    fams = []
+    for idx in (in1, in2):
+        ang = np.degrees(np.arctan2(-np.array([L[k][0] for k in idx]), np.array([L[k][1] for k in idx])))  # line angle
+        ang = (ang + 90) % 180 - 90
+        fams.append((idx, float(np.median(np.abs(ang)))))
+    # "along" (parallel to X) = the flatter family in the image
+    (along_idx, _), (across_idx, _) = sorted(fams, key=lambda f: f[1])
+    along_idx = along_idx[: max_family[1]]
+    across_idx = across_idx[: max_family[0]]
+    # order: along lines bottom -> top (near -> far), across lines left -> right
+    along_idx = sorted(along_idx, key=lambda k: -(-(L[k][0] * c[0] + L[k][2]) / L[k][1]) if abs(L[k][1]) > 1e-9 else 0.0)
+    across_idx = sorted(across_idx, key=lambda k: -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else 0.0)
+    half_len = pitch.length / 2
+    # every ordered assignment, of both halves, grouped by its number of lines:
+    # one batched solve per group (the many small batches' overheads cost as
+    # much as the solves); the cameras come back in the assignments' order
+    groups: dict[int, tuple[list, list, list]] = {}
+    count = 0
+    for side in ("left", "right"):
+        across = [pitch[n].line for n in ("halfway_line", f"penalty_area_{side}_front", f"goal_area_{side}_front", f"goal_line_{side}")]
+        if side == "left":
+            across = across[::-1]
+        along = [pitch[n].line for n in ("touchline_near", f"penalty_area_{side}_near", f"goal_area_{side}_near", f"goal_area_{side}_far", f"penalty_area_{side}_far", "touchline_far")]
+        for na in range(min(len(across_idx), 4), 1, -1):
+            for nb in range(min(len(along_idx), 6), 1, -1):
+                if na + nb < 4:
+                    continue
+                dst = np.array([L[k] for k in across_idx[:na]] + [L[k] for k in along_idx[:nb]])
+                src = np.array([[across[m] for m in ma] + [along[m] for m in mb] for ma in combinations(range(len(across)), na) for mb in combinations(range(len(along)), nb)])
+                srcs, dsts, order = groups.setdefault(na + nb, ([], [], []))
+                srcs.append(src)
+                dsts.append(np.broadcast_to(dst, src.shape))
+                order.append(count + np.arange(len(src)))
+                count += len(src)
+    found: list[tuple[int, Camera]] = []
+    for srcs, dsts, order in groups.values():
+        Hs, ok = homographies_from_lines(np.concatenate(srcs), np.concatenate(dsts))
+        # only those with a plausible focal length decomposed
+        poses = decompose_homographies(Hs[ok], principal_point)
+        C, f = poses.centre, poses.focal
+        # valid, above the pitch behind the near touchline, a plausible focal length
+        good = poses.ok & (C[:, 1] < -pitch.width / 2 - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < half_len) & (f > 0.3 * W) & (f < 12 * W)
+        rank = np.concatenate(order)[ok]
+        found += [(int(rank[k]), Camera(K=intrinsic_matrix(float(f[k]), *principal_point), R=poses.R[k], t=poses.t[k])) for k in np.flatnonzero(good)]
+    found.sort(key=lambda rc: rc[0])
+    return [cam for _, cam in found]
+
+
+# ---------------------------------------------------------------------------
+# initialiser from pairs of lines of each direction, scored on the paint
+@dataclass(frozen=True)
+class LineHypotheses:
+    """Cameras from ordered pairs of lines of each pitch direction, best first
+    (:func:`cameras_from_line_pairs`).
+
+    Attributes
+    ----------
+    cameras : list of Camera, at most ``keep`` of them
+    scores : (M,) float64, their scores (hits / (in view + 30) over the model
+        samples, see :func:`cameras_from_line_pairs`)
+    n_tried : int, homographies solved
+    n_plausible : int, of which gave a plausible camera
+    """
+
+    cameras: list
+    scores: np.ndarray
+    n_tried: int
+    n_plausible: int
+
+
+def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float) -> tuple[list[int], list[int]]:
+    """Split lines (N, 3) with segment ends (N, 2, 2) into the pitch's two
+    directions: (along the touchlines, across them), by the two vanishing
+    points with the most lines (:func:`_vp_family`); the flatter family is "along"."""
+    mids = ends.mean(axis=1)
+    _, in1 = _vp_family(list(L), mids, tol_deg, ends)
+    rest = [k for k in range(len(L)) if k not in in1]
+    if len(in1) < 2 or not rest:
+        return [], []
+    _, in2r = _vp_family([L[k] for k in rest], mids[rest], tol_deg, ends[rest])
+    in2 = [rest[k] for k in in2r] if len(rest) >= 2 else rest
+    if not in2:
+        return [], []
+
+    def flatness(idx):
+        return float(np.median([abs(L[k][1]) for k in idx]))  # |b| ~ 1 for a horizontal line
+
+    a, b = (in1, in2) if flatness(in1) >= flatness(in2) else (in2, in1)
+    return a, b
+
+
+def cameras_from_line_pairs(
+    lines,
+    endpoints,
+    size: tuple[int, int],
+    principal_point,
+    near: np.ndarray,
+    pitch: PitchModel | None = None,
+    *,
+    max_family: int = 4,
+    tol_deg: float = 2.0,
+    keep: int = 8,
+    spacing: float = 1.0,
+    guided: int = 150,
+    prescreen: int = 600,
+) -> LineHypotheses:
+    """Candidate cameras from straight lines, scored against the frame's paint.
+
+    The lines are split into the pitch's two directions by their vanishing
+    points (each must lie beyond every segment of its family). Seen from the
+    main side (Y < 0), lines along the touchlines (Y = const) keep their
+    order bottom to top and lines across them (X = const) left to right; so
+    every ordered pair of image lines of each direction, with every ordered
+    pair of model lines of that direction (touchlines, penalty- and goal-area
+    sides; goal lines, goal-area and penalty-area fronts, the halfway line),
+    fixes a homography (four line correspondences, :func:`homographies_from_lines`).
+    With the principal point it gives a camera (:func:`decompose_homographies`),
+    kept when plausible (above the pitch, outside the near touchline, a focal
+    length from 0.3 to 12 widths). Each is scored by the model's markings
+    sampled every ``spacing`` m: ``hits / (in view + 30)``, hits being
+    samples that land on a non-zero pixel of ``near`` (paint, grown by the
+    tolerance); the 30 keeps a view of one short stretch from winning.
+
+    Parameters
+    ----------
+    lines : (N, 3) image lines, pixels, a^2 + b^2 = 1
+    endpoints : (N, 2, 2) their segments' ends, pixels
+    size : (width, height) of the frame
+    principal_point : (2,) pixels
+    near : (h, w) uint8 or bool, non-zero within the tolerance of paint; any
+        size (scaled to the frame)
+    pitch : PitchModel (default 105 x 68)
+    max_family : most lines of each direction used (the first ones given)
+    tol_deg : angle within which a line points at its family's vanishing point
+    keep : most cameras returned
+
+    Returns
+    -------
+    LineHypotheses
+    """
+    pitch = pitch or PitchModel()
+    W, H = size
+    L = np.array([normalize_line(np.asarray(l, float)) for l in lines]).reshape(-1, 3)
+    E = np.asarray(endpoints, float).reshape(-1, 2, 2)
+    empty = LineHypotheses([], np.zeros(0), 0, 0)
+    if len(L) < 4:
+        return empty
+    along, across = _line_families(L, E, tol_deg)
+    if len(along) < 2 or len(across) < 2:
+        return empty
+    along, across = along[:max_family], across[:max_family]
+    c = np.array([W / 2, H / 2])
+
+    def y_at_centre(k):
+        return -(L[k][0] * c[0] + L[k][2]) / L[k][1] if abs(L[k][1]) > 1e-9 else np.inf
+
+    def x_at_centre(k):
+        return -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else np.inf
+
+    along = sorted(along, key=lambda k: -y_at_centre(k))  # bottom (near) to top (far)
+    across = sorted(across, key=x_at_centre)  # left to right
+    hl, hw = pitch.length / 2, pitch.width / 2
+    # the model's straight markings of each direction, by their centrelines
+    xs = sorted({round(sg.start[0], 6) for sg in pitch.segments if abs(sg.start[0] - sg.end[0]) < 1e-9})
+    ys = sorted({round(sg.start[1], 6) for sg in pitch.segments if abs(sg.start[1] - sg.end[1]) < 1e-9})
+    m_across = [np.array([1.0, 0.0, -x]) for x in xs]  # X = x
+    m_along = [np.array([0.0, 1.0, -y]) for y in ys]  # Y = y
+    ia = list(combinations(across, 2))
+    ib = list(combinations(along, 2))
+    ma = list(combinations(range(len(xs)), 2))
+    mb = list(combinations(range(len(ys)), 2))
+    # every (image pair, model pair) of each direction: (K, 4, 3) lines
+    MA, MB = np.array(m_across), np.array(m_along)
+    ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
+    g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
+    n = len(g)
+    src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
+    dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
+    Hs, ok = homographies_from_lines(src, dst)
+    poses = decompose_homographies(Hs[ok], principal_point)
+    C, f = poses.centre, poses.focal
+    good = poses.ok & (C[:, 1] < -hw - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * W) & (f < 12 * W)
+    idx = np.flatnonzero(good)
+    if not len(idx):
+        return LineHypotheses([], np.zeros(0), n, 0)
+    Hg = Hs[ok][idx]
+    # precision: the model's markings sampled, the share that lands on paint
+    P = np.concatenate([m.sample(spacing) for m in pitch.markings.values()])
+    Ph = np.column_stack([P, np.ones(len(P))])
+    nz = np.asarray(near) > 0
+    sy, sx = nz.shape[0] / H, nz.shape[1] / W
+    # recall: points along the detected segments (the family lines used), the
+    # share that lies within ``tol`` pixels of a marking (distance on the pitch
+    # over the pitch metres one pixel across the line covers there)
+    used = sorted(set(along) | set(across))
+    t = np.linspace(0.0, 1.0, 16)
+    Q = np.concatenate([(1 - t)[:, None] * E[k, 0] + t[:, None] * E[k, 1] for k in used])
+    Qn = np.concatenate([np.tile(L[k][:2], (len(t), 1)) for k in used])
+    Qh = np.column_stack([Q, np.ones(len(Q))])
+    Qh1 = np.column_stack([Q + Qn, np.ones(len(Q))])
+    tree = scipy.spatial.cKDTree(pitch.sample_points(0.25))
+    tol = max(2.0, 2.5 * W / 1280)
+
+    def score(Hb: np.ndarray) -> np.ndarray:
+        """precision x recall of homographies (K, 3, 3)"""
+        out = np.empty(len(Hb))
+        for s in range(0, len(Hb), 1024):
+            Hk = Hb[s : s + 1024]
+            X = np.einsum("kij,nj->kni", Hk, Ph)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                u, v = X[..., 0] / X[..., 2], X[..., 1] / X[..., 2]
+            inside = (X[..., 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+            ui = np.clip(np.where(inside, u * sx, 0), 0, nz.shape[1] - 1).astype(np.int64)
+            vi = np.clip(np.where(inside, v * sy, 0), 0, nz.shape[0] - 1).astype(np.int64)
+            hits = (nz[vi, ui] & inside).sum(axis=1)
+            precision = hits / (inside.sum(axis=1) + 30.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                Hi = np.linalg.inv(Hk)
+                G = np.einsum("kij,nj->kni", Hi, Qh)
+                G1 = np.einsum("kij,nj->kni", Hi, Qh1)
+                g, g1 = G[..., :2] / G[..., 2:], G1[..., :2] / G1[..., 2:]
+                scale = np.linalg.norm(g1 - g, axis=2)
+            fin = np.all(np.isfinite(g), axis=2) & np.isfinite(scale)
+            d = np.full(g.shape[:2], np.inf)
+            d[fin], _ = tree.query(g[fin], distance_upper_bound=5.0)
+            with np.errstate(invalid="ignore"):
+                recall = np.mean(d / np.where(scale > 0, scale, np.inf) <= tol, axis=1)
+            out[s : s + 1024] = precision * recall
+        return out
+
+    # precision alone first (cheap), on a sparser sampling; the full score for the best
+    scores = np.full(len(Hg), -1.0)
+    pre = np.empty(len(Hg))
+    P2h = Ph[::2]
+    for s in range(0, len(Hg), 2048):
+        X = np.einsum("kij,nj->kni", Hg[s : s + 2048], P2h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u, v = X[..., 0] / X[..., 2], X[..., 1] / X[..., 2]
+        inside = (X[..., 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+        ui = np.clip(np.where(inside, u * sx, 0), 0, nz.shape[1] - 1).astype(np.int64)
+        vi = np.clip(np.where(inside, v * sy, 0), 0, nz.shape[0] - 1).astype(np.int64)
+        pre[s : s + 2048] = (nz[vi, ui] & inside).sum(axis=1) / (inside.sum(axis=1) + 15.0)
+    first = np.argsort(-pre)[:prescreen]
+    scores[first] = score(Hg[first])
+    # guided matching: the best hypotheses take every family line that lies
+    # on a model line of its direction under them, and are solved again from
+    # all those correspondences (more lines, a better homography)
+    top = np.argsort(-scores)[:guided]
+    fam = [(k, m_across) for k in across] + [(k, m_along) for k in along]
+    reach = 0.012 * W
+    Hx, cand = [], []
+    for j in top:
+        Hj = Hg[j]
+        try:
+            Hit = np.linalg.inv(Hj).T  # model line -> image line
+        except np.linalg.LinAlgError:
+            continue
+        src_l, dst_l = [], []
+        for k, models in fam:
+            best_m, best_d = None, reach
+            for mline in models:
+                li = Hit @ mline
+                nrm = np.hypot(li[0], li[1])
+                if nrm < 1e-12:
+                    continue
+                dd = max(abs(li[:2] @ E[k, 0] + li[2]), abs(li[:2] @ E[k, 1] + li[2])) / nrm
+                if dd < best_d:
+                    best_m, best_d = mline, dd
+            if best_m is not None:
+                src_l.append(best_m)
+                dst_l.append(L[k])
+        if len(src_l) > 4:
+            H2, ok2 = homographies_from_lines(np.array(src_l)[None], np.array(dst_l)[None])
+            if ok2[0]:
+                Hx.append(H2[0])
+                cand.append(j)
+    if Hx:
+        Hx = np.array(Hx)
+        p2 = decompose_homographies(Hx, principal_point)
+        C2, f2 = p2.centre, p2.focal
+        ok = p2.ok & (C2[:, 1] < -hw - 3) & (C2[:, 2] > 3) & (C2[:, 2] < 80) & (np.abs(C2[:, 0]) < hl + 20) & (f2 > 0.3 * W) & (f2 < 12 * W)
+        s2 = score(Hx)
+        for i in np.flatnonzero(ok & (s2 > scores[np.array(cand)])):
+            scores[cand[i]] = s2[i]
+            Hg[cand[i]] = Hx[i]
+    # the camera nearest to each of the best homographies on the pitch it shows
+    gx, gy = np.meshgrid(np.arange(-hl - 4, hl + 4.1, 2.0), np.arange(-hw - 4, hw + 4.1, 2.0))
+    grid = np.column_stack([gx.ravel(), gy.ravel()])
+    gh = np.column_stack([grid, np.ones(len(grid))])
+    cams, sc = [], []
+    for j in np.argsort(-scores):
+        X = gh @ Hg[j].T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u, v = X[:, 0] / X[:, 2], X[:, 1] / X[:, 2]
+        seen = (X[:, 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+        try:
+            cam = camera_near_homography(Hg[j], principal_point, grid[seen])
+        except ValueError:
+            continue
+        # the same camera from another assignment (a line pair read twice): skip
+        if any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
+            continue
+        cams.append(cam)
+        sc.append(scores[j])
+        if len(cams) >= keep:
+            break
+    return LineHypotheses(cams, np.array(sc), n, int(len(idx)))
