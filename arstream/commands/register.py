@@ -14,29 +14,43 @@ def register(subparsers) -> None:
         description=(
             "Solve the camera of one still: detect the pitch markings, initialise from the centre "
             "circle (pole-polar relations) or, when it is out of view, from line correspondences "
-            "(penalty areas), and refine against every visible marking. Prints the camera as a "
+            "(penalty areas), and refine against every visible marking; on real broadcast frames, "
+            "from the straight lines of the white paint. A camera is reported only when the "
+            "frame's paint backs it (line support >= 0.7, docs/evaluate.md). Prints the camera as a "
             "cameras.jsonl record."
         ),
     )
+    from arstream.commands.eval import _pitch, _positive
     from arstream.framein import add_frame_arguments
 
     add_frame_arguments(p, draw_help="write the image with the projected pitch model drawn over it")
+    p.add_argument("--pitch", type=_pitch, default=None, metavar="LxW", help="pitch size in metres (default 105x68)")
+    p.add_argument(
+        "--pixel-aspect", type=_positive(float), default=1.0, metavar="A",
+        help="a pixel's width over its height, for frames resized from another shape (e.g. 1.7778 for 16:9 squeezed to a square); the camera's K then has K[1][1]/K[0][0] = A (default 1)",
+    )  # fmt: skip
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     import cv2
-    import numpy as np
 
     from arstream.detect import detect
+    from arstream.evaluate_video import draw_overlay
     from arstream.framein import read_frame
     from arstream.initialise import register_frame
+    from arstream.pipeline.stages import Analysis
     from geometry.pitch import PitchModel
 
     image = read_frame(args.input, args.frame)
     H, W = image.shape[:2]
-    det = detect(image)
-    est = register_frame(det, (W, H), image=image)
+    pitch = PitchModel(*args.pitch) if args.pitch else PitchModel()
+    # square pixels for the solver (an anamorphic or resized frame is stretched), mapped back after
+    an = Analysis(W, H, None, pixel_aspect=args.pixel_aspect)
+    work = image if an.full else cv2.resize(image, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
+    est = register_frame(detect(work), (an.w, an.h), image=work, pitch=pitch)
+    if est.camera is not None:
+        est = type(est)(est.frame, est.pts, est.status, an.camera(est.camera), est.confidence, est.info)
     rec = est.to_record()
     rec.pop("frame", None)
     rec.pop("pts", None)
@@ -46,16 +60,13 @@ def run(args) -> int:
         print(f"lost: {est.info.get('reason', 'no camera')}")
     else:
         c = est.camera
-        print(f"ok  f={c.focal:.1f}px  centre=({c.center[0]:.2f}, {c.center[1]:.2f}, {c.center[2]:.2f}) m  k1={c.dist[0] if c.dist else 0:.4f}  confidence={est.confidence:.2f}")
+        sup = est.info.get("support")
+        print(
+            f"ok  f={c.focal:.1f}px  centre=({c.center[0]:.2f}, {c.center[1]:.2f}, {c.center[2]:.2f}) m  k1={c.dist[0] if c.dist else 0:.4f}  "
+            f"confidence={est.confidence:.2f}" + (f"  line support={sup:.2f}" if sup is not None else "")
+        )
     if args.draw:
-        out = image.copy()
-        if est.camera is not None:
-            for poly in PitchModel().polylines(0.25):
-                X = np.column_stack([poly, np.zeros(len(poly))])
-                px = est.camera.project(X)
-                ok = np.all(np.isfinite(px), axis=1)
-                for a, b in zip(px[:-1][ok[:-1] & ok[1:]], px[1:][ok[:-1] & ok[1:]]):
-                    cv2.line(out, (int(round(a[0] * 16)), int(round(a[1] * 16))), (int(round(b[0] * 16)), int(round(b[1] * 16))), (0, 0, 255), 1, cv2.LINE_AA, shift=4)
+        out = draw_overlay(image, est.camera, est.status if est.camera is None else f"{est.status}  line support {est.info.get('support', float('nan')):.2f}", pitch=pitch, pixel_aspect=args.pixel_aspect)
         if not cv2.imwrite(args.draw, out):
             from arstream.errors import InputError
 

@@ -181,11 +181,12 @@ def paint_lines(mask: np.ndarray, image: np.ndarray | None = None, *, min_length
             continue
         vx, vy, x0, y0 = cv2.fitLine(sel.astype(np.float32), cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
         nn = np.array([-vy, vx], np.float64)
+        nn /= np.hypot(nn[0], nn[1])  # (fitLine's direction is single precision)
         cc = -float(nn @ (x0, y0))
         sel = P[np.abs(P @ nn + cc) < near]
         if len(sel) < 2:
             continue
-        t = sel @ np.array([vx, vy], np.float64)
+        t = sel @ np.array([nn[1], -nn[0]])
         t0, t1 = _longest_run(t, max_gap)
         keep = (t >= t0) & (t <= t1)
         sel, t = sel[keep], t[keep]

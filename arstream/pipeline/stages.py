@@ -69,15 +69,26 @@ class Analysis:
     width, height : frame size
     analysis_width : int or None; None or >= width: full resolution. Rounded
         to even; the height keeps the aspect ratio (even too).
+    pixel_aspect : float, a frame pixel's width over its height (1: square;
+        an anamorphic SD stream's sample aspect ratio, or frames resized from
+        another shape). The analysis frame has square pixels: its width is
+        the frame's displayed width ``width * pixel_aspect`` (at most
+        ``analysis_width``), so the solver's square-pixel camera maps back to
+        a frame camera whose ``K[1, 1] / K[0, 0]`` is the pixel aspect.
     """
 
-    def __init__(self, width: int, height: int, analysis_width: int | None = None):
+    def __init__(self, width: int, height: int, analysis_width: int | None = None, *, pixel_aspect: float = 1.0):
         self.W, self.H = int(width), int(height)
-        if analysis_width is None or analysis_width <= 0 or analysis_width >= width:
+        if not (np.isfinite(pixel_aspect) and 0.1 <= pixel_aspect <= 10.0):
+            raise ValueError(f"pixel aspect must be between 0.1 and 10, got {pixel_aspect}")
+        self.pixel_aspect = float(pixel_aspect)
+        shown = self.W * self.pixel_aspect  # the displayed width, in pixels of the frame's height
+        if self.pixel_aspect == 1.0 and (analysis_width is None or analysis_width <= 0 or analysis_width >= width):
             w, h = self.W, self.H
         else:
-            w = max(16, int(round(analysis_width / 2.0)) * 2)
-            h = max(16, int(round(self.H * w / self.W / 2.0)) * 2)
+            target = shown if analysis_width is None or analysis_width <= 0 else min(float(analysis_width), shown)
+            w = max(16, int(round(target / 2.0)) * 2)
+            h = max(16, int(round(self.H * w / shown / 2.0)) * 2)
         self.w, self.h = w, h
         self.full = (w, h) == (self.W, self.H)
         self.sx, self.sy = self.W / w, self.H / h
