@@ -253,7 +253,7 @@ class Tracker:
         self.support_reach = int(support_reach)
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
-        self._bright: tuple[int, np.ndarray] | None = None  # (frame, line-support mask) of the last frame
+        self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
         self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0}
 
     # --- filter ----------------------------------------------------------------
@@ -368,18 +368,18 @@ class Tracker:
                 del self._motion_at[k]
                 self._width_at.pop(k, None)
         if self.lag == 0:
-            return [est]
+            return [self._final(est)]
         self._window.append(est)
         out = []
         while len(self._window) > self.lag:
-            out.append(self._smooth_pop())
+            out.append(self._final(self._smooth_pop()))
         return out
 
     def flush(self) -> list[CameraEstimate]:
         """Emit the estimates still held by the offline smoother."""
         out = []
         while self._window:
-            out.append(self._smooth_pop())
+            out.append(self._final(self._smooth_pop()))
         return out
 
     # --- offline smoothing ---------------------------------------------------------
@@ -686,26 +686,54 @@ class Tracker:
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         if self._image is not None and cam is not None:
             # never draw with a wrong camera: the frame's paint must back it (DESIGN.md 5b)
-            if self._bright is None or self._bright[0] != index:
-                self._bright = (index, bright_mask(cv2.cvtColor(self._image, cv2.COLOR_BGR2GRAY), reach=self.support_reach))
-            sup = line_support(cam, self._bright[1], marking_points(self.pitch)).share
+            sup = self._support(index, cam, self._image)
             info["support"] = sup
-            if sup is not None and sup >= self.cfg.min_support:
-                self._supported_at = index
-            elif sup is not None and index - self._supported_at > self.cfg.max_coast:
-                # (within max_coast frames of a supported one the filter is still
-                # trusted: blur in a fast pan hides the paint, not the camera)
+            if sup is None or sup >= self.cfg.min_support:
+                self._supported_at = index if sup is not None else self._supported_at
+                self._unsupported = 0
+            elif not self._trusted(index, sup):
                 self.stats["unsupported"] += 1
                 self._unsupported += 1
                 if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
                     self.reset(keep_centre=False)
                 return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f})")
-            self._unsupported = 0
         info["centre"] = np.array(centre, dtype=np.float64)
         if self.lag and self._kf is not None and filtered:
             kf = self._kf
             info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
         return CameraEstimate(index, pts, status, cam, float(conf), info)
+
+    def _support(self, index: int, cam: Camera, image: np.ndarray | None = None) -> float | None:
+        """Line support of ``cam`` on frame ``index`` (its mask is made from
+        ``image`` once, and kept while the smoother holds the frame)."""
+        mask = self._bright.get(index)
+        if mask is None:
+            if image is None:
+                return None
+            mask = self._bright[index] = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), reach=self.support_reach)
+            for k in [k for k in self._bright if k < index - self.lag - 2]:
+                del self._bright[k]
+        return line_support(cam, mask, marking_points(self.pitch)).share
+
+    def _trusted(self, index: int, sup: float) -> bool:
+        """A camera below ``min_support`` is still shown within ``max_coast`` frames
+        of a supported one when half its markings land on paint: blur in a fast
+        pan hides the paint, not the camera."""
+        return sup >= 0.5 * self.cfg.min_support and index - self._supported_at <= self.cfg.max_coast
+
+    def _final(self, est: CameraEstimate) -> CameraEstimate:
+        """The line-support test again on the camera that is output (the
+        smoother moved it): one that fails is "lost"."""
+        if est.camera is None or "support" not in est.info:
+            return est
+        sup = self._support(est.frame, est.camera)
+        if sup is None or sup >= self.cfg.min_support or (sup >= 0.5 * self.cfg.min_support and est.info["support"] is not None and est.info["support"] >= 0.5 * self.cfg.min_support and self._trusted(est.frame, sup)):
+            est.info["support"] = sup
+            return est
+        self.stats["unsupported"] += 1
+        self.stats[est.status] -= 1
+        self.stats["lost"] += 1
+        return CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {sup:.2f})")
 
     def _want_k1(self) -> bool:
         return self.k1 is None or self.k1 != 0.0
