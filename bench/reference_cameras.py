@@ -213,6 +213,10 @@ def fit_mask(img: np.ndarray, box: int, threshold: float = 8.0, max_saturation: 
     # white paint: unsaturated, or clearly less saturated than the grass around it
     # (thin far lines blur into the grass); the yellow lines of other sports are neither
     white = (sat < max_saturation) | (sat < cv2.blur(sat, (box, box)) - white_margin)
+    # ... and not yellow / orange (red and green both well above blue, more than around it)
+    b, g, r = (c.astype(np.float32) for c in cv2.split(cv2.blur(img, (5, 5))))
+    yellow = np.minimum(r, g) - b
+    white &= yellow < cv2.blur(yellow, (box, box)) + 12
     return ridge & (grass_share > 0.3) & white
 
 
@@ -335,7 +339,7 @@ def refine(img: np.ndarray, entry: dict, init: Camera | None = None, verbose: bo
     labels = [c["label"] for c in corr]
     img_xy = np.array([c["image_xy"] for c in corr], float).reshape(-1, 2)
     prior_px = float(opts.get("prior_px", 8.0))
-    k1_sigma = float(opts.get("k1_sigma", 0.1))
+    k1_px = float(opts.get("k1_px", 4.0))
     if init is None:
         pitch = PitchModel(L0, W0)
         init = _camera_from_points(img_xy, [feature_xy(s, pitch) for s in labels], (w, h), aspect)
@@ -369,7 +373,10 @@ def refine(img: np.ndarray, entry: dict, init: Camera | None = None, verbose: bo
             pr = np.nan_to_num((pp - img_xy) / prior_px, nan=50.0).ravel()
         else:
             pr = np.zeros(0)
-        extra = [cam.dist[0] / k1_sigma]  # k1: a weak prior toward 0
+        # k1: a prior toward 0 of k1_px pixels of displacement at the image corner, so that
+        # a long lens (small field of view) does not take a large k1 the lines hardly see
+        rc = np.hypot(w / 2 / cam.K[0, 0], h / 2 / cam.K[1, 1])
+        extra = [cam.dist[0] * rc**3 * cam.K[0, 0] / k1_px]
         if model.fit_length:
             extra.append((L - 105.0) / 10.0)  # priors toward the nominal pitch, not the stored value
         if model.fit_width:
@@ -388,6 +395,31 @@ def refine(img: np.ndarray, entry: dict, init: Camera | None = None, verbose: bo
     if not free_k1:
         x[7] = x0[7]
     return model.unpack(x)
+
+
+def _turn_to_points(cam: Camera, entry: dict, pitch: PitchModel) -> Camera:
+    """A previous frame's camera turned and zoomed (rotation and focal length; the
+    centre, principal point and k1 kept) onto this entry's correspondences: the
+    start of a clip frame whose points alone do not fix a camera (e.g. only
+    the halfway line's crossings)."""
+    corr = entry.get("correspondences", [])
+    if len(corr) < 2:
+        return cam
+    xy = np.array([c["image_xy"] for c in corr], float)
+    P = np.column_stack([[feature_xy(c["label"], pitch) for c in corr], np.zeros(len(corr))])
+    C = cam.center
+    a = cam.K[1, 1] / cam.K[0, 0]
+
+    def make(x):
+        R = cv2.Rodrigues(x[1:4])[0]
+        K = intrinsic_matrix(float(np.exp(x[0])), cam.K[0, 2], cam.K[1, 2], a)
+        return Camera.trusted(K, R, -R @ C, cam.dist)
+
+    def res(x):
+        return np.nan_to_num(make(x).project(P) - xy, nan=1e4).ravel()
+
+    x0 = np.r_[np.log(cam.focal), cv2.Rodrigues(cam.R)[0].ravel()]
+    return make(least_squares(res, x0, x_scale="jac").x)
 
 
 def reprojection_rms(cam: Camera, entry: dict, pitch: PitchModel) -> float | None:
@@ -428,11 +460,13 @@ def fit_entry(item: str, doc: dict, frame: int, img: np.ndarray, from_previous: 
     """Refine one entry and store camera, pitch, support and RMS in it."""
     e = entry_of(doc, frame)
     init = None
-    if from_previous or len(e.get("correspondences", [])) < 4:
+    if from_previous:
+        e["init"] = "previous_frame"
+    if from_previous or e.get("init") == "previous_frame" or len(e.get("correspondences", [])) < 4:
         prev = [p for p in doc["frames"] if p["frame"] < frame and p.get("camera")]
         if not prev:
             raise ValueError(f"{item} frame {frame}: fewer than 4 correspondences and no previous camera")
-        init = Camera.from_dict(prev[-1]["camera"])
+        init = _turn_to_points(Camera.from_dict(prev[-1]["camera"]), e, PitchModel(prev[-1]["pitch"]["length"], prev[-1]["pitch"]["width"]))
     cam, L, W = refine(img, e, init, verbose=verbose)
     e["image_size"] = [int(img.shape[1]), int(img.shape[0])]
     e["pitch"]["length"], e["pitch"]["width"] = round(L, 3), round(W, 3)
