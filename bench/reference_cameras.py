@@ -24,28 +24,34 @@ frames, so they are made independently of the product's detector and solver:
    correspondences are too few, the previous reference frame's camera.
 3. **Refinement to the painted lines** (:func:`refine`): the focal length,
    the rotation, the camera centre, ``k1`` and, where the view constrains them
-   (``fit_pitch`` in the item's data), the pitch length and/or width are
-   fitted with ``scipy.optimize.least_squares`` (Cauchy loss, shrinking
-   scale) to the distance transform of a *line-centre* mask: pixels whose
-   luma exceeds the mean of a box around them by more than 12 (box about
-   twice the width of the widest line), that are the ridge of that response
-   across the line, that are not strongly coloured (only white paint: the
-   yellow lines of other sports are left out) and that have grass around
-   them. The markings are sampled every 0.25 m and projected with the full
-   model (distortion included); the correspondences stay in the fit as a weak
-   prior (8 px standard error) so that it cannot slide to a wrong alignment.
+   (``pitch.fit`` in the entry), the pitch length and/or width are fitted with
+   ``scipy.optimize.least_squares`` (Cauchy loss on the line term with a
+   shrinking scale, 12 -> 1.2 px) to the distance transform of a
+   *line-centre* mask (:func:`fit_mask`): pixels whose luma exceeds the mean
+   of a box about twice the widest line's width by more than 8 (lower than
+   the support's 12: far lines after compression stand only about 10 levels
+   above the grass), that are the ridge of that response across the line,
+   that are white (unsaturated or less saturated than the grass around; not
+   yellow: the lines of other sports are left out) and that have grass
+   around them. The markings are sampled every 0.25 m and projected with the
+   full model (distortion included). Gaussian priors keep the fit honest:
+   the correspondences (8 px), ``k1`` (4 px of displacement at the image
+   corner) and a fitted pitch size (105 +- 10 x 68 +- 8 m).
+   A clip frame may start from the previous reference frame's camera turned
+   onto its correspondences (``"init": "previous_frame"``), where its own
+   points do not fix a camera.
 4. **Checked by eye** on an overlay of every marking (``--draw``), with crops
    of the far lines and corners, and with its **line support**
    (:func:`line_support`: the issue's definition) stored beside it.
 
 Usage (from the repository root)::
 
-    .venv/bin/python bench/reference_cameras.py --draw DIR            # redraw every overlay (+ contact sheets)
+    .venv/bin/python bench/reference_cameras.py --draw DIR            # redraw every overlay
+    .venv/bin/python bench/reference_cameras.py --draw DIR --sheets   # ... and docs/images/real_reference_<item>.jpg
     .venv/bin/python bench/reference_cameras.py --draw DIR --item ucl_2009
     .venv/bin/python bench/reference_cameras.py --fit ITEM [--frame N] # re-fit from the stored correspondences
     .venv/bin/python bench/reference_cameras.py --fit ITEM --frame N --from-previous  # start from frame N-25's camera
     .venv/bin/python bench/reference_cameras.py --grid ITEM --frame N --out DIR [--crop x0,y0,x1,y1]
-    .venv/bin/python bench/reference_cameras.py --sheets DIR          # docs/images contact sheets from DIR's overlays
 
 ``--fit`` writes the refined camera, its line support and the
 correspondences' reprojection RMS back into the item's JSON file (the notes
