@@ -56,7 +56,7 @@ Usage (from the repository root)::
 ``--fit`` writes the refined camera, its line support and the
 correspondences' reprojection RMS back into the item's JSON file (the notes
 and correspondences are kept); look at the overlay before committing it.
-To change a reference: edit its correspondences (or ``fit_pitch``) in the
+To change a reference: edit its correspondences (or ``pitch.fit``) in the
 JSON, re-fit, redraw, look.
 """
 
