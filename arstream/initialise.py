@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs
-from arstream.support import bright_mask, line_support, marking_points
+from arstream.support import line_support, marking_points, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
@@ -123,7 +123,7 @@ class PaintView:
     mask : (H, W) uint8, white paint (:func:`arstream.detect.paint.paint_mask`), frame pixels
     index : LineIndex over the paint pixels (frame pixels; every other row and
         column above 1000 px wide)
-    bright : (H, W) bool, the line-support mask of the frame (:func:`arstream.support.bright_mask`)
+    bright : (H, W) bool, the white-paint support mask of the frame (:func:`arstream.support.white_mask`)
     lines : list of DetectedLine, the paint's straight lines, most support
         first (found on first access: tracking needs only the pixels)
     """
@@ -148,7 +148,7 @@ def paint_view(image: np.ndarray, detections) -> PaintView:
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
     index = LineIndex(np.column_stack([xs, ys]).astype(np.float64) * step)
-    bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+    bright = white_mask(image)
     return PaintView(image, mask, index, bright)
 
 
@@ -245,7 +245,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             pass
     sup = None
     if image is not None:
-        bright = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+        bright = white_mask(image)
         points = marking_points(pitch)
         sup = None if r is None else line_support(r.camera, bright, points).share
         if sup is None or sup < min_support:

@@ -216,6 +216,9 @@ class VideoSource:
         rate = self.stream.average_rate or self.stream.guessed_rate or self.stream.base_rate
         self.rate: Fraction = Fraction(rate) if rate else Fraction(25, 1)
         self.fps = float(self.rate)
+        sar = self.stream.sample_aspect_ratio or cc.sample_aspect_ratio
+        #: a pixel's width over its height (the stream's sample aspect ratio; 1 when unset)
+        self.pixel_aspect = float(sar) if sar and float(sar) > 0 else 1.0
         self.time_base = self.stream.time_base
         self.frame_count = int(self.stream.frames or 0)  # 0 when the container does not say
         self.is_live = is_url or format is not None

@@ -76,7 +76,9 @@ __all__ = [
     "Support",
     "Jitter",
     "bright_mask",
+    "white_mask",
     "marking_points",
+    "marking_spread",
     "pixel_support",
     "line_support",
     "jitter_proxy",
@@ -188,6 +190,32 @@ def bright_mask(luma: np.ndarray, *, video_range: bool = False, box: int = BOX, 
     return bright.view(bool)
 
 
+def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:
+    """:func:`bright_mask` of the darkest channel of a BGR frame: pixels near
+    paint that is bright in blue, green *and* red.
+
+    The run-time test of a camera (the tracker's and ``arstream register``'s
+    "never draw with a wrong camera") uses it instead of the luma: white paint
+    raises every channel, but a yellow or orange line of another sport raises
+    the luma without the blue, and a narrow view that lands its few markings on
+    such lines would pass the luma test. On white markings both tests agree.
+    The reported line support (``arstream eval``) keeps the luma definition.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 BGR frame
+    reach : as :func:`bright_mask`
+
+    Returns
+    -------
+    (H, W) bool
+    """
+    if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
+        raise ValueError(f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image).__name__)} {getattr(image, 'shape', '')}")
+    low = cv2.min(cv2.min(image[:, :, 0], image[:, :, 1]), image[:, :, 2])
+    return bright_mask(low, reach=reach)
+
+
 @functools.lru_cache(maxsize=16)
 def _marking_points(length: float, width: float, line_width: float, spacing: float) -> np.ndarray:
     pitch = PitchModel(length, width, line_width)
@@ -214,6 +242,40 @@ def marking_points(pitch: PitchModel | None = None, spacing: float = SPACING) ->
     if not (np.isfinite(spacing) and spacing > 0):
         raise ValueError(f"spacing must be positive, got {spacing}")
     return _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
+
+
+@functools.lru_cache(maxsize=16)
+def _marking_ids(length: float, width: float, line_width: float, spacing: float) -> np.ndarray:
+    pitch = PitchModel(length, width, line_width)
+    ids = np.concatenate([np.full(len(m.sample(spacing)), k) for k, m in enumerate((*pitch.segments, *pitch.arcs))])
+    ids.setflags(write=False)
+    return ids
+
+
+def marking_spread(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = None, *, spacing: float = SPACING, min_points: int = 20, min_share: float = 0.5) -> tuple[int, int]:
+    """How many of the markings in view are on paint: (in view, supported).
+
+    A marking (a segment or an arc of :func:`marking_points`) is in view with
+    at least ``min_points`` of its points inside the image, and supported when
+    ``min_share`` of those are on ``mask``. The line support counts points, so
+    one long marking laid along one painted line (a goal line on the halfway
+    line, seen through a long lens) can carry a wrong camera; a right camera
+    puts most of its markings in view on paint.
+    """
+    pitch = pitch or PitchModel()
+    X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    H, W = mask.shape
+    with np.errstate(invalid="ignore"):
+        ix = np.floor(camera.project(X) + 0.5)
+        inside = (ix[:, 0] >= 0) & (ix[:, 0] < W) & (ix[:, 1] >= 0) & (ix[:, 1] < H)
+    k = ids[inside]
+    ij = ix[inside].astype(np.intp)
+    hit = mask[ij[:, 1], ij[:, 0]]
+    n = np.bincount(k, minlength=ids[-1] + 1)
+    h = np.bincount(k, weights=hit, minlength=ids[-1] + 1)
+    seen = n >= min_points
+    return int(seen.sum()), int((h[seen] >= min_share * n[seen]).sum())
 
 
 def pixel_support(pixels: np.ndarray, mask: np.ndarray, *, min_points: int = MIN_POINTS) -> Support:

@@ -55,7 +55,7 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
-from arstream.support import bright_mask, line_support, marking_points
+from arstream.support import line_support, marking_points, marking_spread, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -88,7 +88,8 @@ class TrackerConfig:
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
     paint_every: int = 8  # while lost, the paint initialiser (real frames) runs at most every this many frames
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
-    min_support: float = 0.6  # least line support (DESIGN.md 5b) of a camera that is output (and drawn)
+    min_support: float = 0.6  # least line support (DESIGN.md 5b) of a camera that is output (and drawn) ...
+    min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
 
 
 def _hump_centre(x: np.ndarray, y: np.ndarray, k: int) -> float | None:
@@ -686,54 +687,65 @@ class Tracker:
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         if self._image is not None and cam is not None:
             # never draw with a wrong camera: the frame's paint must back it (DESIGN.md 5b)
-            sup = self._support(index, cam, self._image)
+            sup, spread = self._support(index, cam, self._image)
             info["support"] = sup
-            if sup is None or sup >= self.cfg.min_support:
-                self._supported_at = index if sup is not None else self._supported_at
+            if self._passes(index, sup, spread, info.get("source")):
                 self._unsupported = 0
-            elif not self._trusted(index, sup):
+            else:
                 self.stats["unsupported"] += 1
                 self._unsupported += 1
                 if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
                     self.reset(keep_centre=False)
-                return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f})")
+                return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
         info["centre"] = np.array(centre, dtype=np.float64)
         if self.lag and self._kf is not None and filtered:
             kf = self._kf
             info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
         return CameraEstimate(index, pts, status, cam, float(conf), info)
 
-    def _support(self, index: int, cam: Camera, image: np.ndarray | None = None) -> float | None:
-        """Line support of ``cam`` on frame ``index`` (its mask is made from
-        ``image`` once, and kept while the smoother holds the frame)."""
+    def _support(self, index: int, cam: Camera, image: np.ndarray | None = None) -> tuple[float | None, float]:
+        """Line support of ``cam`` on frame ``index`` on white paint, and the
+        share of its markings in view that are on paint (1 with fewer than 3 in
+        view); the frame's mask is made from ``image`` once and kept while the
+        smoother holds the frame."""
         mask = self._bright.get(index)
         if mask is None:
             if image is None:
-                return None
-            mask = self._bright[index] = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), reach=self.support_reach)
+                return None, 1.0
+            mask = self._bright[index] = white_mask(image, reach=self.support_reach)
             for k in [k for k in self._bright if k < index - self.lag - 2]:
                 del self._bright[k]
-        return line_support(cam, mask, marking_points(self.pitch)).share
+        sup = line_support(cam, mask, marking_points(self.pitch)).share
+        seen, backed = marking_spread(cam, mask, self.pitch)
+        return sup, (backed / seen if seen >= 3 else 1.0)
 
-    def _trusted(self, index: int, sup: float) -> bool:
-        """A camera below ``min_support`` is still shown within ``max_coast`` frames
-        of a supported one when half its markings land on paint: blur in a fast
-        pan hides the paint, not the camera."""
-        return sup >= 0.5 * self.cfg.min_support and index - self._supported_at <= self.cfg.max_coast
+    def _passes(self, index: int, sup: float | None, spread: float, source: str | None) -> bool:
+        """The test of a camera to output: line support at least ``min_support``
+        with half its markings in view on paint (one long marking laid on one
+        painted line does not make a camera right). A tracked camera (not a
+        fresh initialisation) is still shown within ``max_coast`` frames of a
+        supported one at ``min_trusted``: blur in a fast pan hides the paint,
+        not the camera."""
+        if sup is None:
+            return True
+        if sup >= self.cfg.min_support and spread >= 0.5:
+            self._supported_at = max(self._supported_at, index)
+            return True
+        return source not in ("init", "paint") and sup >= self.cfg.min_trusted and index - self._supported_at <= self.cfg.max_coast
 
     def _final(self, est: CameraEstimate) -> CameraEstimate:
         """The line-support test again on the camera that is output (the
         smoother moved it): one that fails is "lost"."""
         if est.camera is None or "support" not in est.info:
             return est
-        sup = self._support(est.frame, est.camera)
-        if sup is None or sup >= self.cfg.min_support or (sup >= 0.5 * self.cfg.min_support and est.info["support"] is not None and est.info["support"] >= 0.5 * self.cfg.min_support and self._trusted(est.frame, sup)):
+        sup, spread = self._support(est.frame, est.camera)
+        if self._passes(est.frame, sup, spread, est.info.get("source")):
             est.info["support"] = sup
             return est
         self.stats["unsupported"] += 1
         self.stats[est.status] -= 1
         self.stats["lost"] += 1
-        return CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {sup:.2f})")
+        return CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
 
     def _want_k1(self) -> bool:
         return self.k1 is None or self.k1 != 0.0

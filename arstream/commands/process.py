@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from arstream.commands._clip import add_encoder_arguments
+from arstream.commands._clip import add_encoder_arguments, add_view_arguments
 
 ORDER = 30
 
@@ -45,6 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--cameras-out", metavar="FILE", help="write the camera of every frame as JSON lines (cameras.jsonl)")
     p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
     p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640)")
+    add_view_arguments(p)
     add_encoder_arguments(p)
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
@@ -76,6 +77,8 @@ def run(args) -> int:
             progress=progress,
             max_frames=args.frames,
             analysis_width=aw,
+            pitch=args.pitch,
+            pixel_aspect=args.pixel_aspect,
         ),
         args,
         label="process",

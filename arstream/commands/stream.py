@@ -94,6 +94,9 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT.mp4", help="also record the augmented video")
     p.add_argument("--cameras-out", metavar="FILE", help="also write the cameras as JSON lines")
     p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640)")
+    from arstream.commands._clip import add_view_arguments
+
+    add_view_arguments(p)
     p.add_argument("--jpeg-quality", type=int, default=75, metavar="Q", help="quality of the JPEG frames sent to rerun (default: 75)")
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop after N frames")
     p.add_argument(
@@ -141,6 +144,8 @@ def run(args) -> int:
                 max_frames=args.frames,
                 progress=progress,
                 analysis_width=aw,
+                pitch=args.pitch,
+                pixel_aspect=args.pixel_aspect,
                 reconnect=DEFAULT_RECONNECT if args.reconnect is None else args.reconnect,
                 timeout=DEFAULT_TIMEOUT if args.timeout is None else args.timeout,
             ),

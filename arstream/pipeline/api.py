@@ -118,6 +118,21 @@ def _load_kernels() -> None:
     warm_up_async()
 
 
+def _pitch_model(pitch):
+    """``pitch`` as the tracker takes it: None (105 x 68), a PitchModel, or (length, width) in metres."""
+    if pitch is None:
+        return None
+    from geometry.pitch import PitchModel
+
+    if isinstance(pitch, PitchModel):
+        return pitch
+    try:
+        length, width = (float(v) for v in pitch)
+    except (TypeError, ValueError):
+        raise ValueError(f"pitch must be (length, width) in metres or a PitchModel, got {pitch!r}") from None
+    return PitchModel(length, width)
+
+
 def process(
     input,
     output=None,
@@ -133,6 +148,8 @@ def process(
     handle_signals: bool = True,
     overlap: bool = True,
     analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+    pitch=None,
+    pixel_aspect: float | None = None,
     threads: int = 0,
     keep_b_frames: bool = True,
 ) -> Summary:
@@ -158,6 +175,11 @@ def process(
     max_frames : stop after this many frames (1 or more)
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
+    pitch : (length, width) in metres or a ``geometry.pitch.PitchModel``, when
+        the pitch's size is known (default 105 x 68)
+    pixel_aspect : a pixel's width over its height: the stream's sample aspect
+        ratio by default (1 when it has none); give it for frames resized from
+        another shape. The cameras' ``K[1][1] / K[0][0]`` is this aspect
     analysis_width : width (pixels) of the frames detection and tracking work on;
         None or 0: full resolution (see :class:`Analysis`)
     threads : 0 (default): use the machine (detection overlapped on a thread,
@@ -188,12 +210,12 @@ def process(
     _load_kernels()
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
-        an = Analysis(W, H, analysis_width)
+        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0))
         track_box: list = []
         stages = _build(
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=_pitch_model(pitch))),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -283,6 +305,8 @@ def stream(
     handle_signals: bool = True,
     warn: Callable[[str], None] | None = None,
     analysis_width: int | None = DEFAULT_ANALYSIS_WIDTH,
+    pitch=None,
+    pixel_aspect: float | None = None,
     reconnect: float = DEFAULT_RECONNECT,
     timeout: float = DEFAULT_TIMEOUT,
 ) -> Summary:
@@ -301,7 +325,7 @@ def stream(
     jpeg_quality : quality of the JPEG frames sent to rerun
     warn : callable(str) for non-fatal problems (unreachable viewer, a network
         source lost and reconnected); default stderr
-    analysis_width : as :func:`process`
+    analysis_width, pitch, pixel_aspect : as :func:`process`
     reconnect, timeout : a URL source that sends nothing for ``timeout`` seconds
         or whose connection fails is opened again for up to ``reconnect``
         seconds (0: not at all); its frames go on with consecutive numbers
@@ -325,7 +349,7 @@ def stream(
     with open_live(source, format=format, options=options, reconnect=reconnect, timeout=timeout, report=warn) as src:
         W, H = src.width, src.height
         rt = src.is_live if realtime is None else bool(realtime)
-        an = Analysis(W, H, analysis_width)
+        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0))
         logger_box: list = []
         track_box: list = []
 
@@ -339,7 +363,7 @@ def stream(
         stages = _build(
             [
                 lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an, pitch=_pitch_model(pitch))),
                 make_logger,
                 lambda: RenderStage(W, H, scene),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),

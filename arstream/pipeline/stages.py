@@ -224,12 +224,12 @@ class TrackStage(Stage):
 
     name = "track"
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None, pitch=None):
         self.analysis = analysis or Analysis(width, height)
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
-            reach = max(1, int(round(2.0 / self.analysis.sx)))  # the line-support test's 2 px of the frame
-            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach) if cls is not None else None
+            reach = max(1, int(round(2.0 / min(self.analysis.sx, self.analysis.sy))))  # the line-support test's 2 px of the frame
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach, pitch=pitch) if cls is not None else None
         self.tracker = tracker
         self.available = tracker is not None
         self.lag = int(lag)
