@@ -88,7 +88,7 @@ class TrackerConfig:
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
     paint_every: int = 8  # while lost, the paint initialiser (real frames) runs at most every this many frames
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
-    min_support: float = 0.6  # least line support (DESIGN.md 5b) of a camera that is output (and drawn) ...
+    min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
 
 
@@ -213,7 +213,7 @@ class Tracker:
     config : TrackerConfig
     support_reach : int, the line-support test's tolerance (pixels of the
         frames given; 2 at the frame's own resolution, 1 on frames scaled to
-        half of it, so that the test matches DESIGN.md 5b's 2 px of the frame)
+        half of it, so that the test matches the 2 px of the frame that docs/evaluate.md defines)
     """
 
     def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2):
@@ -686,7 +686,7 @@ class Tracker:
 
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         if self._image is not None and cam is not None:
-            # never draw with a wrong camera: the frame's paint must back it (DESIGN.md 5b)
+            # never draw with a wrong camera: the frame's paint must back it (docs/evaluate.md)
             sup, spread = self._support(index, cam, self._image)
             info["support"] = sup
             if self._passes(index, sup, spread, info.get("source")):

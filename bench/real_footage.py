@@ -1,0 +1,190 @@
+"""Benchmark: the product on the shared real broadcast material (issue 29).
+
+For each shared still, ``arstream register`` (the Premier League frames with
+their pixel aspect 16/9); for each shared clip, ``arstream process`` then the
+ground-truth-free figures of ``arstream eval --video`` (coverage, line support,
+share of frames at >= 0.7, frames drawn below 0.5, jitter proxy); for every
+item, the mean distance to the reference cameras (tests/data/real_reference,
+made independently by bench/reference_cameras.py) over the markings in view,
+in pixels of a 1280-wide frame, and the speed. Prints Markdown tables and
+writes contact sheets of overlays (``--sheets DIR``).
+
+Usage::
+
+    python bench/real_footage.py [--sheets DIR] [--clips NAME ...] [--pitch NAME=LxW ...]
+
+The material is read from ``../shared/data/real-broadcast`` (skipped with a
+message where it is absent).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from arstream.detect import detect  # noqa: E402
+from arstream.evaluate import frame_error  # noqa: E402
+from arstream.evaluate_video import draw_overlay, evaluate_video  # noqa: E402
+from arstream.initialise import register_frame  # noqa: E402
+from arstream.pipeline import process  # noqa: E402
+from arstream.pipeline.stages import Analysis  # noqa: E402
+from arstream.support import bright_mask, line_support, marking_points  # noqa: E402
+from geometry.camera import Camera  # noqa: E402
+from geometry.pitch import PitchModel  # noqa: E402
+
+SHARED = ROOT.parent / "shared" / "data" / "real-broadcast"
+REFERENCE = ROOT / "tests" / "data" / "real_reference"
+STILLS = ["ucl_2009", "world_cup_2006", "world_cup_2018"]
+CLIPS = ["israel_league_wide", "artificial_turf_multisport"]
+EPL_ASPECT = 16 / 9
+
+
+def references(item: str) -> dict[int, tuple[Camera, PitchModel]]:
+    path = REFERENCE / f"{item}.json"
+    if not path.exists():
+        return {}
+    out = {}
+    for e in json.loads(path.read_text())["frames"]:
+        p = e["pitch"]
+        out[e["frame"]] = (Camera.from_dict(e["camera"]), PitchModel(p["length"], p["width"]))
+    return out
+
+
+def distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, aspect: float = 1.0) -> float:
+    """Mean distance (pixels of the frame shown 1280 wide) between the markings
+    in the reference's view projected by both cameras."""
+    if aspect != 1.0:
+        ref, got = (Camera(K=np.diag([aspect, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, got))
+        size = (round(size[0] * aspect), size[1])
+    err = frame_error(ref, got, size, pitch.sample_points(0.25), pitch.symmetries[:1])
+    return float("nan") if err is None else err.mean * 1280.0 / size[0]
+
+
+def still_rows(sheets: Path | None) -> list[dict]:
+    rows, overlays = [], []
+    items = [(s, SHARED / "stills" / f"{s}.png", 1.0, 0) for s in STILLS]
+    items += [(f"sequence_epl frame {k:02d}", SHARED / "sequence-epl" / f"frame_{k:02d}.jpg", EPL_ASPECT, k) for k in (0, 25, 50)]
+    for name, path, aspect, frame in items:
+        img = cv2.imread(str(path))
+        H, W = img.shape[:2]
+        t0 = time.perf_counter()
+        an = Analysis(W, H, None, pixel_aspect=aspect)
+        work = img if an.full else cv2.resize(img, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
+        est = register_frame(detect(work), (an.w, an.h), image=work)
+        cam = an.camera(est.camera) if est.camera is not None else None
+        seconds = time.perf_counter() - t0
+        sup = None if cam is None else line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share
+        refs = references("sequence_epl" if name.startswith("sequence") else name)
+        d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], aspect) if cam is not None and frame in refs else float("nan")
+        rows.append({"item": name, "status": est.status, "support": sup, "distance_1280": d, "seconds": seconds})
+        overlays.append(draw_overlay(img, cam, f"{name}: {est.status}" + (f"  support {sup:.2f}" if sup is not None else ""), pixel_aspect=aspect))
+    if sheets is not None:
+        sheet(overlays, sheets / "real_registration_stills.jpg")
+    return rows
+
+
+def clip_rows(clips, pitches: dict, sheets: Path | None) -> list[dict]:
+    rows = []
+    for name in clips:
+        path = SHARED / "clips" / f"{name}.mp4"
+        pitch = pitches.get(name)
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            cams = tmp / "cameras.jsonl"
+            t0 = time.perf_counter()
+            summary = process(str(path), cameras_out=str(cams), pitch=pitch, handle_signals=False)
+            seconds = time.perf_counter() - t0
+            draw = tmp / "draw"
+            recs = [json.loads(x) for x in cams.read_text().splitlines()]
+            score = evaluate_video(str(path), recs, pitch=PitchModel(*pitch) if pitch else None, draw_every=25, draw_dir=str(draw))
+            shares = [f.share for f in score.per_frame if f.share is not None]
+            drawn = [f.share for f in score.per_frame if f.status in ("ok", "tracked") and f.share is not None]
+            refs = references(name)
+            dists = []
+            for k, (ref, rpitch) in sorted(refs.items()):
+                rec = recs[k] if k < len(recs) else None
+                cam = None if rec is None or rec.get("K") is None else Camera.from_dict(rec)
+                dists.append(float("inf") if cam is None else distance_1280(ref, cam, (score.width, score.height), rpitch))
+            rows.append(
+                {
+                    "item": name + (f" (--pitch {pitch[0]:g}x{pitch[1]:g})" if pitch else ""),
+                    "frames": summary.frames,
+                    "coverage": score.coverage,
+                    "support_median": score.support_median,
+                    "share_at_0_7": (sum(v >= 0.7 for v in shares) / len(shares)) if shares else None,
+                    "drawn_below_0_5": (sum(v < 0.5 for v in drawn) / len(drawn)) if drawn else None,
+                    "jitter_1280": None if score.jitter is None else score.jitter * 1280.0 / score.width,
+                    "reference_frames": len(dists),
+                    "within_5px": (sum(d <= 5.0 for d in dists) / len(dists)) if dists else None,
+                    "fps": summary.frames / seconds,
+                }
+            )
+            if sheets is not None and (draw / "contact_sheet.png").exists():
+                img = cv2.imread(str(draw / "contact_sheet.png"))
+                cv2.imwrite(str(sheets / f"real_process_{name}{'_pitch' if pitch else ''}.jpg"), img, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    return rows
+
+
+def sheet(images, out: Path, cols: int = 3, width: int = 640) -> None:
+    tiles = [cv2.resize(im, (width, round(im.shape[0] * width / im.shape[1]))) for im in images]
+    h = max(t.shape[0] for t in tiles)
+    tiles = [cv2.copyMakeBorder(t, 0, h - t.shape[0], 0, 0, cv2.BORDER_CONSTANT) for t in tiles]
+    while len(tiles) % cols:
+        tiles.append(np.zeros_like(tiles[0]))
+    grid = np.vstack([np.hstack(tiles[i : i + cols]) for i in range(0, len(tiles), cols)])
+    cv2.imwrite(str(out), grid, [cv2.IMWRITE_JPEG_QUALITY, 80])
+
+
+def _fmt(v, pct=False, nd=2):
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return "n/a"
+    return f"{100 * v:.1f} %" if pct else f"{v:.{nd}f}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sheets", type=Path, help="write contact sheets of overlays into this folder")
+    ap.add_argument("--clips", nargs="*", default=CLIPS, help="clips to process (default: both)")
+    ap.add_argument("--pitch", action="append", default=[], metavar="NAME=LxW", help="a clip's pitch size (repeatable)")
+    ap.add_argument("--no-stills", action="store_true")
+    args = ap.parse_args(argv)
+    if not SHARED.is_dir():
+        print(f"skipped: {SHARED} is absent")
+        return 0
+    pitches = {}
+    for p in args.pitch:
+        name, size = p.split("=")
+        pitches[name] = tuple(float(v) for v in size.lower().split("x"))
+    if args.sheets:
+        args.sheets.mkdir(parents=True, exist_ok=True)
+    if not args.no_stills:
+        print("| still | status | line support | distance to reference (px @1280) | seconds |")
+        print("|---|---|---|---|---|")
+        for r in still_rows(args.sheets):
+            print(f"| {r['item']} | {r['status']} | {_fmt(r['support'])} | {_fmt(r['distance_1280'])} | {r['seconds']:.1f} |", flush=True)
+    runs = [(c, None) for c in args.clips] + [(c, pitches[c]) for c in pitches]
+    print()
+    print("| clip | frames | coverage | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | reference frames within 5 px | fps |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, pitch in runs:
+        for r in clip_rows([name], {name: pitch} if pitch else {}, args.sheets):
+            print(
+                f"| {r['item']} | {r['frames']} | {_fmt(r['coverage'], True)} | {_fmt(r['support_median'])} | {_fmt(r['share_at_0_7'], True)} | "
+                f"{_fmt(r['drawn_below_0_5'], True)} | {_fmt(r['jitter_1280'])} | {_fmt(r['within_5px'], True)} of {r['reference_frames']} | {r['fps']:.1f} |",
+                flush=True,
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
