@@ -181,8 +181,19 @@ def test_committed_sample_matches_its_generator():
     header = json.loads((root / "header.json").read_text())
     clip = SynthClip(header["preset"]["name"], header["seed"], header["frames"], tuple(header["size"]), header["fps"])
     assert len(truth) == clip.n == 250
+    # The cameras' last bits are the machine's that wrote them: numpy's sin, cos and
+    # exp are SVML's on CPUs with AVX-512 (up to 4 ulp from libm's elsewhere, numpy
+    # issue 23523). Moving every such result by up to 4 ulp moves the records' K, R,
+    # t and H by less than 4 eps of each matrix's largest entry; a changed generator
+    # moves them by orders more than the 1e-13 allowed. The rest is compared as it is.
+    cam_keys = ("K", "R", "t", "dist", "H")
     for i in (0, 101, 249):
-        assert json.loads(json.dumps(clip.truth(i).to_record())) == truth[i]
+        got = json.loads(json.dumps(clip.truth(i).to_record()))
+        assert {k: v for k, v in got.items() if k not in cam_keys} == {k: v for k, v in truth[i].items() if k not in cam_keys}
+        for k in cam_keys:
+            a, b = np.array(got[k], float), np.array(truth[i][k], float)
+            assert a.shape == b.shape, (i, k)
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-13 * np.abs(b).max(initial=0.0), err_msg=f"frame {i} {k}")
 
 
 def test_no_grass_shows_between_the_stands():
