@@ -206,6 +206,7 @@ def process(
     _check_outputs(input, output=output, cameras_out=cameras_out, max_frames=max_frames)
     if threads < 0:
         raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
+    pitch = _pitch_model(pitch)
     single = threads == 1
     _load_kernels()
     with _open(input, threads=not single) as src:
@@ -215,7 +216,7 @@ def process(
         stages = _build(
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=_pitch_model(pitch))),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -345,6 +346,7 @@ def stream(
     warn = warn or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
     mode = parse_rerun(rerun)
     _check_outputs(source, output=output, cameras_out=cameras_out, max_frames=max_frames)
+    pitch = _pitch_model(pitch)
     _load_kernels()
     with open_live(source, format=format, options=options, reconnect=reconnect, timeout=timeout, report=warn) as src:
         W, H = src.width, src.height
@@ -363,7 +365,7 @@ def stream(
         stages = _build(
             [
                 lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an, pitch=_pitch_model(pitch))),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an, pitch=pitch)),
                 make_logger,
                 lambda: RenderStage(W, H, scene),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
