@@ -79,6 +79,7 @@ __all__ = [
     "white_mask",
     "marking_points",
     "marking_spread",
+    "backed_support",
     "pixel_support",
     "line_support",
     "jitter_proxy",
@@ -265,9 +266,18 @@ def marking_spread(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     pitch = pitch or PitchModel()
     X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
     ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    _, seen, backed = _on_mask(camera.project(X), ids, mask, min_points, min_share)
+    return seen, backed
+
+
+def _on_mask(pixels: np.ndarray, ids: np.ndarray, mask: np.ndarray, min_points: int, min_share: float) -> tuple[Support, int, int]:
+    """From projected marking points (N, 2) and their markings (N,): the
+    counts on ``mask`` as a :class:`Support` (``share`` left to the caller),
+    the markings with at least ``min_points`` points inside, and of those the
+    ones with ``min_share`` of them on ``mask``."""
     H, W = mask.shape
     with np.errstate(invalid="ignore"):
-        ix = np.floor(camera.project(X) + 0.5)
+        ix = np.floor(pixels + 0.5)
         inside = (ix[:, 0] >= 0) & (ix[:, 0] < W) & (ix[:, 1] >= 0) & (ix[:, 1] < H)
     k = ids[inside]
     ij = ix[inside].astype(np.intp)
@@ -275,7 +285,26 @@ def marking_spread(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     n = np.bincount(k, minlength=ids[-1] + 1)
     h = np.bincount(k, weights=hit, minlength=ids[-1] + 1)
     seen = n >= min_points
-    return int(seen.sum()), int((h[seen] >= min_share * n[seen]).sum())
+    n_in, n_hit = int(len(k)), int(np.count_nonzero(hit))
+    return Support(share=None, n_inside=n_in, n_supported=n_hit), int(seen.sum()), int((h[seen] >= min_share * n[seen]).sum())
+
+
+def backed_support(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = None, *, spacing: float = SPACING) -> tuple[float | None, float]:
+    """The run-time judgement of a camera, from one projection of the markings:
+    (line support on ``mask``, the share of its markings in view that are on
+    paint (:func:`marking_spread`; 1 with fewer than 3 in view)).
+
+    With a ``spacing`` other than the definition's 0.25 m the least numbers of
+    points (:data:`MIN_POINTS` for a defined support, 20 for a marking in view)
+    scale with it, so that the same length of marking counts (the tracker
+    samples every 0.5 m: half the cost, the same judgement)."""
+    pitch = pitch or PitchModel()
+    X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    scale = SPACING / float(spacing)
+    sup, seen, backed = _on_mask(camera.project(X), ids, mask, max(2, int(round(20 * scale))), 0.5)
+    share = sup.n_supported / sup.n_inside if sup.n_inside >= max(1, MIN_POINTS * scale) else None
+    return share, (backed / seen if seen >= 3 else 1.0)
 
 
 def pixel_support(pixels: np.ndarray, mask: np.ndarray, *, min_points: int = MIN_POINTS) -> Support:

@@ -55,7 +55,7 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
-from arstream.support import line_support, marking_points, marking_spread, white_mask
+from arstream.support import backed_support, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -689,6 +689,7 @@ class Tracker:
             # never draw with a wrong camera: the frame's paint must back it (docs/evaluate.md)
             sup, spread = self._support(index, cam, self._image)
             info["support"] = sup
+            info["judged"] = cam
             if self._passes(index, sup, spread, info.get("source")):
                 self._unsupported = 0
             else:
@@ -715,9 +716,7 @@ class Tracker:
             mask = self._bright[index] = white_mask(image, reach=self.support_reach)
             for k in [k for k in self._bright if k < index - self.lag - 2]:
                 del self._bright[k]
-        sup = line_support(cam, mask, marking_points(self.pitch)).share
-        seen, backed = marking_spread(cam, mask, self.pitch)
-        return sup, (backed / seen if seen >= 3 else 1.0)
+        return backed_support(cam, mask, self.pitch, spacing=0.5)
 
     def _passes(self, index: int, sup: float | None, spread: float, source: str | None) -> bool:
         """The test of a camera to output: line support at least ``min_support``
@@ -737,6 +736,8 @@ class Tracker:
         """The line-support test again on the camera that is output (the
         smoother moved it): one that fails is "lost"."""
         if est.camera is None or "support" not in est.info:
+            return est
+        if est.camera is est.info.get("judged"):  # (live: the camera judged when it was made)
             return est
         sup, spread = self._support(est.frame, est.camera)
         if self._passes(est.frame, sup, spread, est.info.get("source")):

@@ -231,3 +231,36 @@ def test_jitter_skips_gaps_and_the_sky():
     with pytest.raises(ValueError, match=r"size must be positive \(width, height\), got \(0, 720\)"):
         jitter_proxy([c] * 3, (0, 720))
 
+
+
+# --- the run-time judgement: support and the spread of markings on paint -------------
+def test_backed_support_of_the_true_camera_at_either_spacing(sample_frames):
+    from arstream.support import backed_support
+
+    for cam, m, _ in sample_frames:
+        full = line_support(cam, m).share
+        for spacing in (0.25, 0.5):
+            share, spread = backed_support(cam, m, spacing=spacing)
+            # every other point of the same markings: the share moves by at most the
+            # weight of the points left out (a few points of ~1000 near an edge)
+            assert abs(share - full) < 0.02 and spread == 1.0
+
+
+def test_one_marking_on_paint_is_not_a_camera(sample_frames):
+    # paint only where the true camera puts one long marking (the far touchline):
+    # the points on it may be many, but one marking of those in view is on paint
+    from arstream.support import _marking_ids, backed_support, marking_spread
+
+    cam, m, (W, H) = sample_frames[0]
+    pitch = PitchModel()
+    X = marking_points(pitch)
+    ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, 0.25)
+    far = [k for k, s in enumerate(pitch.segments) if s.name == "touchline_far"][0]
+    px = np.floor(cam.project(X[ids == far]) + 0.5).astype(int)
+    ok = (px[:, 0] >= 0) & (px[:, 0] < W) & (px[:, 1] >= 0) & (px[:, 1] < H)
+    only = np.zeros((H, W), bool)
+    only[px[ok, 1], px[ok, 0]] = True
+    seen, backed = marking_spread(cam, only, pitch)
+    assert seen >= 3 and backed == 1
+    share, spread = backed_support(cam, only, pitch)
+    assert spread == 1 / seen
