@@ -38,11 +38,15 @@ frames, so they are made independently of the product's detector and solver:
    the correspondences (8 px), ``k1`` (4 px of displacement at the image
    corner) and a fitted pitch size (105 +- 10 x 68 +- 8 m).
    A clip frame may start from the previous reference frame's camera turned
-   onto its correspondences (``"init": "previous_frame"``), where its own
-   points do not fix a camera.
+   onto its correspondences (``"init": "previous_frame"``), or from any other
+   reference frame's (``"init": "frame N"``: a pan's far end fitted first),
+   where its own points do not fix a camera.
 4. **Checked by eye** on an overlay of every marking (``--draw``), with crops
    of the far lines and corners, and with its **line support**
-   (:func:`line_support`: the issue's definition) stored beside it.
+   (:func:`line_support`: the issue's definition) stored beside it. A
+   reference frame that cannot be fitted honestly (too few markings, or lines
+   the fit cannot tell from other bright edges) is listed in the item's
+   ``left_out`` with its reason instead of being guessed.
 
 Usage (from the repository root)::
 
@@ -360,10 +364,13 @@ def refine(img: np.ndarray, entry: dict, init: Camera | None = None, verbose: bo
         if not free_k1:
             x = x.copy()
             x[7] = x0[7]
-        cam, L, W = model.unpack(x)
-        key = (round(L, 6), round(W, 6))
-        if key not in cache:
-            cache[key] = _pitch_points(L, W, counts)
+        try:
+            cam, L, W = model.unpack(x)
+            key = (round(L, 6), round(W, 6))
+            if key not in cache:
+                cache[key] = _pitch_points(L, W, counts)
+        except ValueError:  # a trial step to no camera or no pitch (f overflows, W >= L): the worst cost, so it is refused
+            return np.full(n_res, 1e6)
         pts = cache[key]
         px = cam.project_pitch(pts)
         ok = np.isfinite(px).all(axis=1) & (px[:, 0] >= 0) & (px[:, 0] <= w - 1) & (px[:, 1] >= 0) & (px[:, 1] <= h - 1)
@@ -389,6 +396,7 @@ def refine(img: np.ndarray, entry: dict, init: Camera | None = None, verbose: bo
             extra.append((W - 68.0) / 8.0)
         return np.concatenate([line, pr, extra])
 
+    n_res = len(residuals(x0, 12.0))
     x = x0
     if verbose:
         print(f"  initial: f {init.focal:.1f} C {np.round(init.center, 2)} rms {reprojection_rms(init, entry, PitchModel(L0, W0))}")
@@ -468,11 +476,19 @@ def fit_entry(item: str, doc: dict, frame: int, img: np.ndarray, from_previous: 
     init = None
     if from_previous:
         e["init"] = "previous_frame"
-    if from_previous or e.get("init") == "previous_frame" or len(e.get("correspondences", [])) < 4:
+    spec = e.get("init")
+    src = None
+    if isinstance(spec, str) and spec.startswith("frame "):  # "frame N": start from that reference frame's camera
+        src = entry_of(doc, int(spec.split()[1]))
+        if not src.get("camera"):
+            raise ValueError(f"{item} frame {frame}: init {spec!r} has no camera yet")
+    elif spec == "previous_frame" or len(e.get("correspondences", [])) < 4:
         prev = [p for p in doc["frames"] if p["frame"] < frame and p.get("camera")]
         if not prev:
             raise ValueError(f"{item} frame {frame}: fewer than 4 correspondences and no previous camera")
-        init = _turn_to_points(Camera.from_dict(prev[-1]["camera"]), e, PitchModel(prev[-1]["pitch"]["length"], prev[-1]["pitch"]["width"]))
+        src = prev[-1]
+    if src is not None:
+        init = _turn_to_points(Camera.from_dict(src["camera"]), e, PitchModel(src["pitch"]["length"], src["pitch"]["width"]))
     cam, L, W = refine(img, e, init, verbose=verbose)
     e["image_size"] = [int(img.shape[1]), int(img.shape[0])]
     e["pitch"]["length"], e["pitch"]["width"] = round(L, 3), round(W, 3)
