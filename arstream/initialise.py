@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs
-from arstream.support import line_support, marking_points, white_mask
+from arstream.support import backed_support, backs, line_support, marking_points, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic
 from geometry.pitch import PitchModel
@@ -121,16 +121,24 @@ class PaintView:
     Attributes
     ----------
     mask : (H, W) uint8, white paint (:func:`arstream.detect.paint.paint_mask`), frame pixels
-    index : LineIndex over the paint pixels (frame pixels; every other row and
+    points : (M, 2) float64, the paint pixels (frame pixels; every other row and
         column above 1000 px wide)
     bright : (H, W) bool, the white-paint support mask of the frame (:func:`arstream.support.white_mask`)
+    index : LineIndex over ``points`` (made on first access)
     lines : list of DetectedLine, the paint's straight lines, most support
         first (found on first access: tracking needs only the pixels)
     """
 
-    def __init__(self, image: np.ndarray, mask: np.ndarray, index: LineIndex, bright: np.ndarray):
-        self.image, self.mask, self.index, self.bright = image, mask, index, bright
+    def __init__(self, image: np.ndarray, mask: np.ndarray, points: np.ndarray, bright: np.ndarray):
+        self.image, self.mask, self.points, self.bright = image, mask, points, bright
         self._lines: list | None = None
+        self._index: LineIndex | None = None
+
+    @property
+    def index(self) -> LineIndex:
+        if self._index is None:
+            self._index = LineIndex(self.points)
+        return self._index
 
     @property
     def lines(self) -> list:
@@ -139,27 +147,26 @@ class PaintView:
         return self._lines
 
 
-def paint_view(image: np.ndarray, detections) -> PaintView:
-    """The paint mask, a nearest-pixel index over it and the line-support mask
-    of one BGR frame (the pitch region from ``detections``)."""
+def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
+    """The paint mask and its pixels, and the white-paint support mask (with
+    ``reach``, :func:`arstream.support.white_mask`) of one BGR frame (the pitch
+    region from ``detections``)."""
     H, W = image.shape[:2]
     region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
     mask = paint_mask(image, region)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
-    index = LineIndex(np.column_stack([xs, ys]).astype(np.float64) * step)
-    bright = white_mask(image)
-    return PaintView(image, mask, index, bright)
+    return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach))
 
 
 def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
-    Line hypotheses (:func:`arstream.solve.cameras_from_line_pairs`, scored on
+    Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
     the paint grown by about 2.5 px at 1280 wide) are refined against the
     paint pixels, with one radial coefficient when the view has enough
     markings; the refined camera with the highest line support
-    (:func:`arstream.support.line_support`) wins. Returns (refinement, its
+    on white paint (:func:`arstream.support.line_support`) wins. Returns (refinement, its
     support), or (None, None) when no hypothesis was found.
     """
     W, H = size
@@ -221,8 +228,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     enough line support). Returns a "lost" estimate when nothing fits.
 
     With the frame (``image``, BGR, the detections' size) the camera must also
-    have a line support (:func:`arstream.support.line_support`) of at least
-    ``min_support``; when the detector's lines give none that does, the paint
+    have a line support of at least ``min_support`` on white paint with half
+    its markings in view on paint (:func:`arstream.support.backs`, the
+    tracker's test); when the detector's lines give none that does, the paint
     initialiser (:func:`initialise_from_paint`, for real broadcast frames) is
     tried. The support is in ``info["support"]``.
     """
@@ -245,15 +253,20 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             pass
     sup = None
     if image is not None:
-        bright = white_mask(image)
-        points = marking_points(pitch)
-        sup = None if r is None else line_support(r.camera, bright, points).share
-        if sup is None or sup < min_support:
-            rp, sp = initialise_from_paint(paint_view(image, detections), size, principal_point=pp, pitch=pitch)
-            if rp is not None and (sup is None or sp > sup):
-                r, sup = rp, sp
-        if r is not None and (sup is None or sup < min_support):
-            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f})")
+        # (a still must show enough markings to be judged: an undefined support is no backing)
+        def backed(sup, spread):
+            return sup is not None and backs(sup, spread, min_support)
+
+        view = paint_view(image, detections)
+        sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
+        if not backed(sup, spread):
+            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch)
+            if rp is not None:
+                sp, spread_p = backed_support(rp.camera, view.bright, pitch)
+                if r is None or backed(sp, spread_p) or (sp or 0.0) > (sup or 0.0):
+                    r, sup, spread = rp, sp, spread_p
+        if r is not None and not backed(sup, spread):
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {spread:.0%} of its markings in view on paint)")
     if r is None:
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
     info = {"rms": r.rms, "n_visible": r.n_visible}

@@ -80,6 +80,7 @@ __all__ = [
     "marking_points",
     "marking_spread",
     "backed_support",
+    "backs",
     "pixel_support",
     "line_support",
     "jitter_proxy",
@@ -305,6 +306,14 @@ def backed_support(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     sup, seen, backed = _on_mask(camera.project(X), ids, mask, max(2, int(round(20 * scale))), 0.5)
     share = sup.n_supported / sup.n_inside if sup.n_inside >= max(1, MIN_POINTS * scale) else None
     return share, (backed / seen if seen >= 3 else 1.0)
+
+
+def backs(support: float | None, spread: float, min_support: float) -> bool:
+    """Whether a frame's paint backs a camera (:func:`backed_support`'s two
+    figures): support at least ``min_support`` with at least half its markings
+    in view on paint. An undefined support (too few markings in view) is not
+    held against it."""
+    return support is None or (support >= min_support and spread >= 0.5)
 
 
 def pixel_support(pixels: np.ndarray, mask: np.ndarray, *, min_points: int = MIN_POINTS) -> Support:

@@ -55,7 +55,7 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
-from arstream.support import backed_support, white_mask
+from arstream.support import backed_support, backs, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -197,6 +197,11 @@ def _window_points(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, poin
     turns, so its views at the window's ends and middle tell."""
     _, near = _panned_views(cam, centre, offsets_px[[0, len(offsets_px) // 2, -1]], points, size, margin=-0.1 * size[0])
     return points[near.any(axis=0)]
+
+
+def _unsupported(index: int, pts: float, sup: float, spread: float) -> CameraEstimate:
+    """The "lost" estimate of a frame whose paint does not back its camera."""
+    return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
 
 
 class Tracker:
@@ -426,8 +431,8 @@ class Tracker:
             return CameraEstimate.lost(index, pts, reason="no pitch")
         view = None
         if self._paint and image is not None:
-            view = paint_view(image, det)
-            lidx = LineIndex(np.concatenate([det.line_points, view.index.points]))
+            view = self._paint_view(index, image, det)
+            lidx = LineIndex(np.concatenate([det.line_points, view.points]))
         else:
             lidx = LineIndex(det.line_points)
         kf = self._kf
@@ -521,7 +526,7 @@ class Tracker:
             # real frames: faint, thin lines the ridge detector misses; straight
             # lines of the white paint, scored against the frame (costly: not every frame)
             self._paint_at = index
-            view = view or paint_view(image, det)
+            view = view or self._paint_view(index, image, det)
             r, sup = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch)
             if r is not None and sup >= self.cfg.paint_accept:
                 meas, source = r, "paint"
@@ -697,12 +702,25 @@ class Tracker:
                 self._unsupported += 1
                 if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
                     self.reset(keep_centre=False)
-                return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
+                return _unsupported(index, pts, sup, spread)
         info["centre"] = np.array(centre, dtype=np.float64)
         if self.lag and self._kf is not None and filtered:
             kf = self._kf
             info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
         return CameraEstimate(index, pts, status, cam, float(conf), info)
+
+    def _paint_view(self, index: int, image: np.ndarray, det):
+        """The frame's paint view; its white-paint mask is the line-support test's."""
+        view = paint_view(image, det, reach=self.support_reach)
+        self._keep_mask(index, view.bright)
+        return view
+
+    def _keep_mask(self, index: int, mask: np.ndarray) -> np.ndarray:
+        """Keep frame ``index``'s line-support mask while the smoother holds the frame."""
+        self._bright[index] = mask
+        for k in [k for k in self._bright if k < index - self.lag - 2]:
+            del self._bright[k]
+        return mask
 
     def _support(self, index: int, cam: Camera, image: np.ndarray | None = None) -> tuple[float | None, float]:
         """Line support of ``cam`` on frame ``index`` on white paint, and the
@@ -713,9 +731,7 @@ class Tracker:
         if mask is None:
             if image is None:
                 return None, 1.0
-            mask = self._bright[index] = white_mask(image, reach=self.support_reach)
-            for k in [k for k in self._bright if k < index - self.lag - 2]:
-                del self._bright[k]
+            mask = self._keep_mask(index, white_mask(image, reach=self.support_reach))
         return backed_support(cam, mask, self.pitch, spacing=0.5)
 
     def _passes(self, index: int, sup: float | None, spread: float, source: str | None) -> bool:
@@ -727,7 +743,7 @@ class Tracker:
         not the camera."""
         if sup is None:
             return True
-        if sup >= self.cfg.min_support and spread >= 0.5:
+        if backs(sup, spread, self.cfg.min_support):
             self._supported_at = max(self._supported_at, index)
             return True
         return source not in ("init", "paint") and sup >= self.cfg.min_trusted and index - self._supported_at <= self.cfg.max_coast
@@ -746,7 +762,7 @@ class Tracker:
         self.stats["unsupported"] += 1
         self.stats[est.status] -= 1
         self.stats["lost"] += 1
-        return CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
+        return _unsupported(est.frame, est.pts, sup, spread)
 
     def _want_k1(self) -> bool:
         return self.k1 is None or self.k1 != 0.0
