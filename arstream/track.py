@@ -53,6 +53,7 @@ from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
+from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
 from arstream.support import backed_support, backs, white_mask
@@ -90,6 +91,9 @@ class TrackerConfig:
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
+    pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
+    pitch_spacing: int = 5  # frames between two views for the size estimate
+    pitch_support: float = 0.7  # least line support of a view for the size estimate
 
 
 def _hump_centre(x: np.ndarray, y: np.ndarray, k: int) -> float | None:
@@ -213,7 +217,10 @@ class Tracker:
     fps : frame rate (sets the filter's time step)
     lag : 0 for live (causal) output; N > 0 for an RTS smoother over a sliding
         window, estimates emitted N frames late
-    pitch : PitchModel (default 105 x 68 m)
+    pitch : PitchModel when the pitch's size is known; None: start from
+        105 x 68 m and estimate the size from the first views of the clip
+        (:func:`arstream.pitch_size.estimate_pitch_size`; :attr:`pitch_size`
+        says what was found)
     principal_point : (2,) pixels; default the image centre
     config : TrackerConfig
     support_reach : int, the line-support test's tolerance (pixels of the
@@ -230,6 +237,9 @@ class Tracker:
         self.fps = float(fps)
         self.lag = int(lag)
         self.pitch = pitch or PitchModel()
+        self.pitch_size = PitchSize(self.pitch.length, self.pitch.width, source="default" if pitch is None else "given")
+        self._pitch_views: list[PitchView] | None = None if pitch is not None else []
+        self._pitch_view_at = -(10**9)
         self.pp = np.array(principal_point if principal_point is not None else ((width - 1) / 2, (height - 1) / 2), dtype=np.float64)
         self.cfg = config or TrackerConfig()
         self.model = ModelSamples.from_pitch(self.pitch, 0.5)
@@ -260,7 +270,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -499,6 +509,8 @@ class Tracker:
                 self._kf = None  # re-anchored: restart the filter from this measurement
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
+            if r is not None and r.confidence >= self.cfg.init_accept and image is not None and not backs(*self._support(index, r.camera, image), self.cfg.min_support):
+                r = None  # the frame's paint does not back it: the paint initialiser may do better
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
@@ -588,7 +600,54 @@ class Tracker:
             # poorly determined centre) is not a camera to output; the measurement is
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
         cam = self._camera_from_state(self._kf.x, centre)
-        return self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
+        est = self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
+        self._observe_pitch(index, est, lidx)
+        return est
+
+    # --- the pitch's size ---------------------------------------------------------
+    def _observe_pitch(self, index: int, est: CameraEstimate, lidx: LineIndex) -> None:
+        """With the pitch's size unknown, keep frame ``index`` as a view for its
+        estimate (a measured camera about the frozen tripod centre that the paint
+        backs, every ``pitch_spacing`` frames); at ``pitch_views`` views, estimate
+        it and, if it differs from the current size by more than its
+        uncertainty, track with it from here on."""
+        views, c = self._pitch_views, self.cfg
+        if views is None or len(views) >= c.pitch_views[-1] or est.status != "ok" or est.camera is None:
+            return
+        if index - self._pitch_view_at < c.pitch_spacing or (est.info.get("support") or 0.0) < c.pitch_support:
+            return
+        self._pitch_view_at = index
+        views.append(PitchView(est.camera, lidx.points.copy(), self.size))
+        if len(views) not in c.pitch_views:
+            return
+        try:
+            size = estimate_pitch_size(views, self.pitch, centre=self.centre)
+        except ValueError:
+            return
+        if size.length_sd is None and size.width_sd is None:
+            self.pitch_size = size
+            return
+        self.pitch_size = size
+        if all(done for done in size.constrained):
+            self._pitch_views = None  # both fixed: once per clip
+        dl = abs(size.length - self.pitch.length)
+        dw = abs(size.width - self.pitch.width)
+        if dl <= max(2 * (size.length_sd or 0.0), 0.25) and dw <= max(2 * (size.width_sd or 0.0), 0.25):
+            return  # the current size is within the estimate's uncertainty
+        self.pitch = size.model(self.pitch.line_width)
+        self.model = ModelSamples.from_pitch(self.pitch, 0.5)
+        self.centre = np.asarray(size.centre, np.float64)
+        self._centres.clear()
+        self.stats["pitch_changes"] += 1
+        if self._pitch_views is not None:
+            # the views' cameras were made with the old size: the next estimate starts from the new one
+            self._pitch_views = [PitchView(cam, v.points, v.size) for cam, v in zip(size.cameras, self._pitch_views)]
+        # the filter goes on from this frame's camera under the new size, at its rates
+        z = _ptz_vector(size.cameras[-1], self.centre)
+        rates = self._kf.x[1::2, 0].copy() if self._kf is not None else None
+        Rz = self._kf.R.copy() if self._kf is not None else np.diag([1e-6, 1e-6, 1e-6, 1e-5])
+        self._kf = self._new_filter(z, Rz, rates)
+        self._kf_id = self._kf_at = index
 
     def _pan_sweep(self, pred: Camera, lidx: LineIndex, image: np.ndarray | None = None) -> Refinement | None:
         """Re-find the camera after a pan the filter did not follow: score pan angles

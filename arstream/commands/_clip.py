@@ -120,6 +120,8 @@ def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
     """Print a pipeline summary (one line, or JSON with ``--json``), warn about
     missing stages and input damage; the exit code (1 for a damaged input)."""
     print(json.dumps(summary.to_dict(), indent=2) if args.json else summary.line())
+    if not args.json and summary.pitch_text and (summary.pitch or {}).get("source") == "estimated":
+        print(summary.pitch_text)
     for stage in summary.missing:
         warn(f"no {stage} stage in this build{missing(stage)}")
     if summary.errors:

@@ -176,7 +176,8 @@ def process(
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     pitch : (length, width) in metres or a ``geometry.pitch.PitchModel``, when
-        the pitch's size is known (default 105 x 68)
+        the pitch's size is known; None: start from 105 x 68 and estimate it
+        from the clip's first views (``summary.pitch`` says what was found)
     pixel_aspect : a pixel's width over its height: the stream's sample aspect
         ratio by default (1 when it has none); give it for frames resized from
         another shape. The cameras' ``K[1][1] / K[0][0]`` is this aspect
@@ -229,7 +230,19 @@ def process(
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
-        return pipe.run(handle_signals=handle_signals)
+        try:
+            return pipe.run(handle_signals=handle_signals)
+        finally:
+            _note_pitch(pipe.summary, track_box)
+
+
+def _note_pitch(summary: Summary, track_box: list) -> None:
+    """The pitch's size the tracker solved with (given, default or estimated) into ``summary``."""
+    tracker = getattr(track_box[0], "tracker", None) if track_box else None
+    size = getattr(tracker, "pitch_size", None)
+    if size is not None:
+        summary.pitch = size.to_dict()
+        summary.pitch_text = size.describe()
 
 
 def render_clip(
@@ -383,3 +396,5 @@ def stream(
         except SourceLost as exc:  # the outputs are finalised: say what they hold
             exc.summary = pipe.summary
             raise
+        finally:
+            _note_pitch(pipe.summary, track_box)

@@ -33,6 +33,11 @@ class Summary:
     stage_cpu_ms : dict, mean CPU milliseconds per frame of each stage's own thread
         (the encoder's and decoder's codec threads are not included)
     missing : list of str, pipeline stages whose module does not exist yet
+    pitch : dict or None, the pitch's size the cameras were solved with
+        (:meth:`arstream.pitch_size.PitchSize.to_dict`: length, width, their
+        standard deviations where estimated, source "given", "default" or
+        "estimated", views)
+    pitch_text : str or None, the same in words (printed after :meth:`line`)
     """
 
     input: str = ""
@@ -52,6 +57,8 @@ class Summary:
     width: int = 0
     height: int = 0
     cameras_in: str | None = None
+    pitch: dict | None = None
+    pitch_text: str | None = None
 
     @property
     def fps(self) -> float:
@@ -95,6 +102,7 @@ class Summary:
             "stage_cpu_ms": {k: round(v, 3) for k, v in self.stage_cpu_ms.items()},
             "missing": list(self.missing),
             "size": [self.width, self.height],
+            "pitch": self.pitch,
         }
 
 

@@ -1,0 +1,366 @@
+"""The pitch's size as a per-clip unknown (issue 29, item 4).
+
+Real pitches are about 100-110 x 64-75 m (Law 1 allows 90-120 x 45-90).
+Calibrated with the wrong size, a camera fits the near markings and misses the
+far ones by metres, or flips between fits. :func:`estimate_pitch_size`
+refines the pitch's length and width jointly with the cameras of several
+views of one tripod camera (the views' paint pixels against the markings of
+a pitch of that size): one shared camera centre and size, a rotation and a
+focal length per view, the views' lens distortion kept.
+
+A view constrains the *width* when it shows markings whose distance across
+the pitch depends on it (both touchlines, or one touchline with the penalty
+area centred between them) and the *length* when it shows markings at
+either end of a half together (the halfway line or the centre circle with a
+goal line, the penalty or goal area or a penalty arc). Which dimensions the
+views constrain is read off the estimate's uncertainty: a dimension whose
+standard deviation is over ``max_sd`` metres (the views do not fix it) keeps
+its prior value and is reported unconstrained.
+
+The uncertainty is a delete-one-view jackknife over the views: the paint
+pixels of one view are strongly correlated (neighbouring samples of one line
+share its error), so the least-squares covariance would understate it.
+
+Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
+spot); pixels of the views' frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import lil_matrix
+
+from arstream.solve import LineIndex, ModelSamples
+from arstream.solve_kernels import project_points
+from geometry.camera import Camera
+from geometry.pitch import Arc, PitchModel
+
+__all__ = ["PitchView", "PitchSize", "estimate_pitch_size", "size_derivatives"]
+
+#: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
+#: narrowed to what a tracked camera can tell apart from a wrong fit)
+LENGTH_RANGE = (95.0, 115.0)
+WIDTH_RANGE = (58.0, 80.0)
+
+
+@dataclass(frozen=True)
+class PitchView:
+    """One frame for the size estimate.
+
+    Attributes
+    ----------
+    camera : Camera, the frame's camera under the prior size (frame pixels)
+    points : (M, 2) float64, the frame's line (paint) pixel centres
+    size : (width, height) of the frame, pixels
+    """
+
+    camera: Camera
+    points: np.ndarray
+    size: tuple[int, int]
+
+
+@dataclass(frozen=True)
+class PitchSize:
+    """A pitch size and where it comes from.
+
+    Attributes
+    ----------
+    length, width : metres
+    length_sd, width_sd : standard deviations (metres) of an estimated
+        dimension; None where the size was given, or the views did not fix that
+        dimension (then it is the prior's)
+    source : "given", "default" (nothing estimated yet) or "estimated"
+    views : number of views the estimate used
+    centre : (3,) metres, the tripod centre refined with it (None unless estimated)
+    cameras : the views' cameras refined with it (empty unless estimated)
+    rms : px, RMS of the inlier residuals of the fit (None unless estimated)
+    """
+
+    length: float
+    width: float
+    length_sd: float | None = None
+    width_sd: float | None = None
+    source: str = "default"
+    views: int = 0
+    centre: np.ndarray | None = None
+    cameras: tuple = ()
+    rms: float | None = None
+
+    def model(self, line_width: float | None = None) -> PitchModel:
+        """The :class:`PitchModel` of this size."""
+        return PitchModel(self.length, self.width) if line_width is None else PitchModel(self.length, self.width, line_width)
+
+    @property
+    def constrained(self) -> tuple[bool, bool]:
+        """Whether the views fixed the length, the width."""
+        return self.length_sd is not None, self.width_sd is not None
+
+    def describe(self) -> str:
+        """One line for a run's summary, e.g. ``pitch 99.8 +- 0.4 x 68.0 m (estimated
+        from 6 views; width not constrained: 68 kept)``."""
+
+        def dim(v, sd):
+            return f"{v:.1f}" if sd is None else f"{v:.1f} +- {sd:.1f}"
+
+        s = f"pitch {dim(self.length, self.length_sd)} x {dim(self.width, self.width_sd)} m"
+        if self.source == "given":
+            return s + " (given)"
+        if self.source == "default":
+            return s + " (default: no views to estimate it from)"
+        kept = [n for n, c in zip(("length", "width"), self.constrained) if not c]
+        tail = f"; {' and '.join(kept)} not constrained by the views: default kept" if kept else ""
+        return s + f" (estimated from {self.views} views{tail})"
+
+    def to_dict(self) -> dict:
+        """JSON-ready: length, width, their sd (null where not estimated), source, views."""
+        r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
+        return {"length": r(self.length), "width": r(self.width), "length_sd": r(self.length_sd), "width_sd": r(self.width_sd), "source": self.source, "views": self.views}
+
+
+def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray, np.ndarray]:
+    """How each model sample moves with the pitch's length and width.
+
+    Law 1 fixes the areas, arcs and circle; only where they sit depends on
+    the size: the goal lines and everything drawn from them move with half
+    the length, the touchlines with half the width, and a segment's sample
+    at fraction ``s`` of its length moves as its ends do, linearly.
+
+    Parameters
+    ----------
+    pitch : PitchModel the samples were taken from
+    model : ModelSamples of ``pitch``
+
+    Returns
+    -------
+    dL, dW : (N, 3) float64, d(point)/d(length) and d(point)/d(width) (Z = 0)
+    """
+    L, W = pitch.length, pitch.width
+    dl = 1.0 if L + 1.0 <= 120.0 else -1.0
+    dw = 1.0 if W + 1.0 <= 90.0 and W + 1.0 < L else -1.0
+    pl, pw = PitchModel(L + dl, W, pitch.line_width), PitchModel(L, W + dw, pitch.line_width)
+    dL = np.zeros_like(model.points)
+    dW = np.zeros_like(model.points)
+    for k, name in enumerate(model.names):
+        sel = model.marking == k
+        m0 = pitch[name]
+        for other, step, out in ((pl, dl, dL), (pw, dw, dW)):
+            m1 = other[name]
+            if isinstance(m0, Arc):
+                out[sel, :2] = (np.subtract(m1.center, m0.center)) / step
+                continue
+            a0, b0 = np.asarray(m0.start), np.asarray(m0.end)
+            da = (np.asarray(m1.start) - a0) / step
+            db = (np.asarray(m1.end) - b0) / step
+            d = b0 - a0
+            s = np.clip((model.points[sel, :2] - a0) @ d / max(d @ d, 1e-12), 0.0, 1.0)[:, None]
+            out[sel, :2] = (1 - s) * da + s * db
+    return dL, dW
+
+
+@dataclass
+class _Matches:
+    """One view's associations for a round: model points, their derivatives, the
+    paint pixels they matched and the projected markings' normals there."""
+
+    X: np.ndarray
+    dL: np.ndarray
+    dW: np.ndarray
+    q: np.ndarray
+    n: np.ndarray
+    marking: np.ndarray
+
+
+def _camera(view: Camera, R0: np.ndarray, w: np.ndarray, logf0: float, logf: float, C: np.ndarray, kappa: float | None) -> Camera:
+    """``view``'s camera turned by ``w`` (rad, about the camera's axes) from ``R0``,
+    its focal length ``exp(logf)``, centre ``C``; radial ``k1 = kappa / f`` (None: its own)."""
+    R = cv2.Rodrigues(np.asarray(w, np.float64).reshape(3, 1))[0] @ R0
+    K = view.K.copy()
+    s = np.exp(logf - logf0)
+    K[0, 0] *= s
+    K[1, 1] *= s
+    K[0, 1] *= s
+    dist = view.dist if kappa is None else (float(kappa) / K[0, 0],)
+    return Camera.trusted(K, R, -R @ C, dist)
+
+
+def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
+    c = np.ascontiguousarray
+    px, _ = project_points(c(X, np.float64), c(cam.R, np.float64), c(cam.t, np.float64), c(cam.K, np.float64), np.asarray(cam.dist, np.float64), int(size[0]), int(size[1]), -1e6, 0.1)
+    return px
+
+
+def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None):
+    """The joint least squares over ``views`` (a list of indices into ``views``):
+    returns (x, cameras, rms, matches). ``free``: (length free, width free)."""
+    nv = len(indices)
+    R0 = [views[i].camera.R for i in indices]
+    f0 = [np.log(views[i].camera.focal) for i in indices]
+    nfree = int(free[0]) + int(free[1])
+    # a zoom lens's k1 goes as 1 / f: one k1 f for all views, when they have a lens term
+    lens = any(views[i].camera.dist for i in indices)
+    ns = 3 + nfree + int(lens)
+    x = np.zeros(ns + 4 * nv)
+    x[:3] = C0
+    if lens:
+        x[ns - 1] = np.median([(views[i].camera.dist[0] if views[i].camera.dist else 0.0) * views[i].camera.focal for i in indices])
+    for j in range(nv):
+        x[ns + 4 * j + 3] = f0[j]
+    if seed_x is not None:
+        x[:] = seed_x
+
+    def unpack(x):
+        C = x[:3]
+        k = 3
+        L, W = L0, W0
+        if free[0]:
+            L = L0 + x[k]
+            k += 1
+        if free[1]:
+            W = W0 + x[k]
+        return C, L, W, (x[ns - 1] if lens else None)
+
+    def cams(x):
+        C, _, _, kappa = unpack(x)
+        return [_camera(views[i].camera, R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
+
+    matches = None
+    res = None
+    for radius in radii:
+        C, L, W, _ = unpack(x)
+        cs = cams(x)
+        matches = []
+        for j, i in enumerate(indices):
+            v = views[i]
+            P = model.points + dL0 * (L - L0) + dW0 * (W - W0)
+            px, inside = project_points(P, np.ascontiguousarray(cs[j].R), np.ascontiguousarray(cs[j].t), np.ascontiguousarray(cs[j].K), np.asarray(cs[j].dist, np.float64), int(v.size[0]), int(v.size[1]), 2.0, 0.5)
+            idx = np.flatnonzero(inside)
+            if len(idx) > max_points:
+                idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(int)]
+            d, q = LineIndex(v.points).nearest(px[idx], radius)
+            ok = np.isfinite(d)
+            idx, q = idx[ok], q[ok]
+            X = P[idx]
+            p_ab = _project(cs[j], np.concatenate([X, X + 0.05 * model.tangents[idx]]), v.size)
+            tg = p_ab[len(X) :] - p_ab[: len(X)]
+            nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
+            nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
+            matches.append(_Matches(model.points[idx], dL0[idx], dW0[idx], q, nrm, model.marking[idx]))
+        sizes = [len(m.q) for m in matches]
+        if sum(sizes) < ns + 4 * nv + 8 or min(sizes) < 8:
+            raise ValueError("too few marking points matched to the views' paint")
+
+        def fun(x):
+            C, L, W, kappa = unpack(x)
+            out = []
+            for j, m in enumerate(matches):
+                cam = _camera(views[indices[j]].camera, R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
+                p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), views[indices[j]].size)
+                r = np.einsum("ij,ij->i", m.n, p - m.q)
+                out.append(np.where(np.isfinite(r), r, 50.0))
+            return np.concatenate(out)
+
+        S = lil_matrix((sum(sizes), len(x)), dtype=np.int8)
+        row = 0
+        for j, n in enumerate(sizes):
+            S[row : row + n, :ns] = 1
+            S[row : row + n, ns + 4 * j : ns + 4 * j + 4] = 1
+            row += n
+        res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
+        x = res.x
+    r = res.fun
+    inl = np.abs(r) < 2.5
+    rms = float(np.sqrt(np.mean(r[inl] ** 2))) if inl.any() else float("inf")
+    # the least-squares standard deviations of the size (a floor for the jackknife's:
+    # views alike leave a direction the data do not fix with a jackknife near zero)
+    J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
+    J = J[inl]
+    # (a direction the views leave open keeps its huge variance: eigenvalues are
+    # floored, not dropped as a pseudo-inverse would)
+    try:
+        lam, V = np.linalg.eigh(J.T @ J)
+        lam = np.maximum(lam, 1e-12 * max(lam.max(), 1e-300))
+        cov = (V / lam) @ V.T * max(rms, 0.3) ** 2
+        ls_sd = np.sqrt(np.maximum(np.diag(cov)[3 : 3 + nfree], 0.0))
+    except np.linalg.LinAlgError:
+        ls_sd = np.full(nfree, np.inf)
+    sd = [np.inf, np.inf]
+    k = 0
+    for d in range(2):
+        if free[d]:
+            sd[d] = float(ls_sd[k])
+            k += 1
+    return x, cams(x), rms, unpack(x)[:3], sd
+
+
+def estimate_pitch_size(
+    views: list[PitchView],
+    prior: PitchModel | None = None,
+    *,
+    centre: np.ndarray | None = None,
+    max_sd: float = 0.75,
+    radii=(20.0, 8.0, 3.0),
+    max_points: int = 300,
+) -> PitchSize:
+    """The pitch's length and width from views of one tripod camera.
+
+    Parameters
+    ----------
+    views : PitchView list (at least 3), cameras under the ``prior`` size
+    prior : PitchModel the cameras were made with (default 105 x 68 m)
+    centre : (3,) metres, the tripod centre (default the views' median centre)
+    max_sd : metres; a dimension whose jackknife standard deviation is above
+        this is not constrained by the views and keeps the prior's value
+    radii : px, the successive association radii
+    max_points : model points per view and round, evenly thinned
+
+    Returns
+    -------
+    PitchSize (``source`` "estimated"; an unconstrained dimension has sd None)
+
+    Raises
+    ------
+    ValueError
+        With fewer than 3 views, or too few markings matched to their paint.
+    """
+    if len(views) < 3:
+        raise ValueError(f"the pitch's size needs at least 3 views, got {len(views)}")
+    prior = prior or PitchModel()
+    model = ModelSamples.from_pitch(prior, 0.5)
+    dL0, dW0 = size_derivatives(prior, model)
+    L0, W0 = prior.length, prior.width
+    C0 = np.median([v.camera.center for v in views], axis=0) if centre is None else np.asarray(centre, np.float64)
+    all_ = list(range(len(views)))
+    free = [True, True]
+    sd = [None, None]
+    for _ in range(3):  # free both; fix what the views leave open; refit
+        if not any(free):
+            break
+        x, cams, rms, (C, L, W), ls_sd = _fit(views, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points)
+        ns = len(x) - 4 * len(views)
+        # the jackknife: each view left out in turn, started from the full fit
+        est = []
+        for k in all_:
+            keep = [i for i in all_ if i != k]
+            seed = np.concatenate([x[:ns], np.delete(x[ns:].reshape(-1, 4), k, axis=0).ravel()])
+            try:
+                _, _, _, (_, Lk, Wk), _ = _fit(views, keep, model, dL0, dW0, L0, W0, C0, free, radii[-1:], max_points, seed_x=seed)
+            except ValueError:
+                continue
+            est.append((Lk, Wk))
+        n = len(est)
+        if n < 3:
+            raise ValueError("too few views fit the markings to estimate the pitch's size")
+        e = np.array(est)
+        jk = np.sqrt((n - 1) / n * ((e - e.mean(axis=0)) ** 2).sum(axis=0))
+        jk = np.maximum(jk, ls_sd)
+        now = [free[0] and jk[0] <= max_sd and LENGTH_RANGE[0] <= L <= LENGTH_RANGE[1], free[1] and jk[1] <= max_sd and WIDTH_RANGE[0] <= W <= WIDTH_RANGE[1] and W < L]
+        if all(now[d] or not free[d] for d in range(2)):
+            sd = [float(jk[d]) if free[d] else None for d in range(2)]
+            length, width = (L if free[0] else L0), (W if free[1] else W0)
+            return PitchSize(length, width, sd[0], sd[1], "estimated", len(views), np.asarray(C), tuple(cams), rms)
+        free = [free[d] and now[d] for d in range(2)]
+    return PitchSize(L0, W0, None, None, "estimated", len(views), None, (), None)
