@@ -90,9 +90,6 @@ __all__ = [
 BOX = 15
 #: levels (0..255, full range) by which a bright pixel exceeds its box mean
 THRESHOLD = 12.0
-#: (least length in the picture as a share of its width, most share on paint) of a
-#: marking that the frame contradicts (:func:`backed_support`)
-CONTRADICTED = (0.25, 0.2)
 #: Chebyshev distance (pixels) within which a marking point counts as supported
 REACH = 2
 #: metres between marking samples
@@ -270,16 +267,15 @@ def marking_spread(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     pitch = pitch or PitchModel()
     X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
     ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, float(spacing))
-    _, seen, backed, _ = _on_mask(camera.project(X), ids, mask, min_points, min_share)
+    _, seen, backed = _on_mask(camera.project(X), ids, mask, min_points, min_share)
     return seen, backed
 
 
-def _on_mask(pixels: np.ndarray, ids: np.ndarray, mask: np.ndarray, min_points: int, min_share: float) -> tuple[Support, int, int, int]:
+def _on_mask(pixels: np.ndarray, ids: np.ndarray, mask: np.ndarray, min_points: int, min_share: float) -> tuple[Support, int, int]:
     """From projected marking points (N, 2) and their markings (N,): the
     counts on ``mask`` as a :class:`Support` (``share`` left to the caller),
-    the markings with at least ``min_points`` points inside, of those the
-    ones with ``min_share`` of them on ``mask``, and the markings that the
-    frame contradicts (:data:`CONTRADICTED`)."""
+    the markings with at least ``min_points`` points inside, and of those the
+    ones with ``min_share`` of them on ``mask``."""
     H, W = mask.shape
     with np.errstate(invalid="ignore"):
         ix = np.floor(pixels + 0.5)
@@ -287,32 +283,17 @@ def _on_mask(pixels: np.ndarray, ids: np.ndarray, mask: np.ndarray, min_points: 
     k = ids[inside]
     ij = ix[inside].astype(np.intp)
     hit = mask[ij[:, 1], ij[:, 0]]
-    m = ids[-1] + 1
-    n = np.bincount(k, minlength=m)
-    h = np.bincount(k, weights=hit, minlength=m)
+    n = np.bincount(k, minlength=ids[-1] + 1)
+    h = np.bincount(k, weights=hit, minlength=ids[-1] + 1)
     seen = n >= min_points
-    # each marking's length in the picture: the steps between its consecutive points in view
-    both = inside[1:] & inside[:-1] & (ids[1:] == ids[:-1])
-    step = np.hypot(*(pixels[1:][both] - pixels[:-1][both]).T)
-    length = np.bincount(ids[1:][both], weights=step, minlength=m)
-    long_, share_max = CONTRADICTED
-    contra = int(((length >= long_ * W) & (h <= share_max * n)).sum())
     n_in, n_hit = int(len(k)), int(np.count_nonzero(hit))
-    return Support(share=None, n_inside=n_in, n_supported=n_hit), int(seen.sum()), int((h[seen] >= min_share * n[seen]).sum()), contra
+    return Support(share=None, n_inside=n_in, n_supported=n_hit), int(seen.sum()), int((h[seen] >= min_share * n[seen]).sum())
 
 
 def backed_support(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = None, *, spacing: float = SPACING) -> tuple[float | None, float]:
     """The run-time judgement of a camera, from one projection of the markings:
     (line support on ``mask``, the share of its markings in view that are on
-    paint (:func:`marking_spread`; 1 with fewer than 3 in view), or 0 when the
-    frame contradicts one of them).
-
-    The frame contradicts a marking that the camera lays across at least a
-    quarter of the picture's width with at most a fifth of it on paint
-    (:data:`CONTRADICTED`): players hide pieces of a painted line, not most of
-    that much of it. A camera that fits the centre circle and the halfway line
-    at the wrong distance (a circle seen from afar looks alike over a range of
-    distances and focal lengths) lays a touchline across bare grass.
+    paint (:func:`marking_spread`; 1 with fewer than 3 in view)).
 
     With a ``spacing`` other than the definition's 0.25 m the least numbers of
     points (:data:`MIN_POINTS` for a defined support, 20 for a marking in view)
@@ -322,10 +303,8 @@ def backed_support(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
     ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, float(spacing))
     scale = SPACING / float(spacing)
-    sup, seen, backed, contra = _on_mask(camera.project(X), ids, mask, max(2, int(round(20 * scale))), 0.5)
+    sup, seen, backed = _on_mask(camera.project(X), ids, mask, max(2, int(round(20 * scale))), 0.5)
     share = sup.n_supported / sup.n_inside if sup.n_inside >= max(1, MIN_POINTS * scale) else None
-    if contra:
-        return share, 0.0
     return share, (backed / seen if seen >= 3 else 1.0)
 
 

@@ -509,8 +509,6 @@ class Tracker:
                 self._kf = None  # re-anchored: restart the filter from this measurement
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
-            if r is not None and r.confidence >= self.cfg.init_accept and image is not None and not backs(*self._support(index, r.camera, image), self.cfg.min_support):
-                r = None  # the frame's paint does not back it: the paint initialiser may do better
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
