@@ -110,7 +110,7 @@ class PitchSize:
         if self.source == "given":
             return s + " (given)"
         if self.source == "default":
-            return s + " (default: no views to estimate it from)"
+            return s + " (default)"
         kept = [n for n, c in zip(("length", "width"), self.constrained) if not c]
         tail = f"; {' and '.join(kept)} not constrained by the views: default kept" if kept else ""
         return s + f" (estimated from {self.views} views{tail})"

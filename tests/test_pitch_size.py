@@ -99,12 +99,12 @@ def test_given_and_default_sizes_are_described():
 
 
 def test_the_pipeline_estimates_an_odd_pitch(tmp_path):
-    # a synthetic clip of a 100.5 x 71.5 m pitch (real-sd, seed 0), size not given
+    # a synthetic clip of a 100.5 x 71.5 m pitch (real-sd, seed 0), pitch="auto"
     from arstream.pipeline import process
     from arstream.synth import generate
 
     header = generate(tmp_path / "clip", preset="real-sd", seed=0, frames=100)
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", handle_signals=False)
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", pitch="auto", handle_signals=False)
     truth = (header["pitch"]["length"], header["pitch"]["width"])
     assert truth != (105.0, 68.0)
     got = s.pitch
@@ -113,3 +113,14 @@ def test_the_pipeline_estimates_an_odd_pitch(tmp_path):
     # about 0.3 px at 640 x 360 (the clip is 720 x 576 anamorphic, strongly compressed)
     assert abs(got["length"] - truth[0]) < 1.0 and abs(got["width"] - truth[1]) < 1.0, s.pitch_text
     assert s.to_dict()["pitch"] == got
+
+
+def test_without_auto_the_size_is_the_default_and_not_estimated(tmp_path):
+    from arstream.pipeline import process
+    from arstream.synth import generate
+
+    generate(tmp_path / "clip", preset="real-sd", seed=0, frames=40)
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", handle_signals=False)
+    assert s.pitch == {"length": 105.0, "width": 68.0, "length_sd": None, "width_sd": None, "source": "default", "views": 0}
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", pitch=(100, 70), handle_signals=False)
+    assert s.pitch["source"] == "given" and s.pitch_text == "pitch 100.0 x 70.0 m (given)"

@@ -26,7 +26,10 @@ def add_view_arguments(p) -> None:
     """What the solver may be told about the pictures: ``--pitch`` and ``--pixel-aspect``."""
     from arstream.commands.eval import _pitch, _positive
 
-    p.add_argument("--pitch", type=_pitch, default=None, metavar="LxW", help="the pitch's size in metres when known, e.g. 100x64 (default: start from 105x68 and estimate it from the clip's views where the command tracks a clip)")
+    def pitch(text: str):
+        return "auto" if text.strip().lower() == "auto" else _pitch(text)
+
+    p.add_argument("--pitch", type=pitch, default=None, metavar="LxW|auto", help="the pitch's size in metres when known, e.g. 100x64 (default 105x68); 'auto': start from 105x68 and estimate the size from the clip's first views (experimental, see docs/real-footage.md)")
     p.add_argument(
         "--pixel-aspect", type=_positive(float), default=None, metavar="A",
         help="a pixel's width over its height, for frames resized from another shape (default: the stream's sample aspect ratio, else 1); the cameras' K[1][1]/K[0][0] is A",

@@ -119,9 +119,10 @@ def _load_kernels() -> None:
 
 
 def _pitch_model(pitch):
-    """``pitch`` as the tracker takes it: None (105 x 68), a PitchModel, or (length, width) in metres."""
-    if pitch is None:
-        return None
+    """``pitch`` as the tracker takes it: None (105 x 68), "auto" (105 x 68 to
+    start, estimated from the clip), a PitchModel, or (length, width) in metres."""
+    if pitch is None or (isinstance(pitch, str) and pitch == "auto"):
+        return pitch
     from geometry.pitch import PitchModel
 
     if isinstance(pitch, PitchModel):
@@ -176,8 +177,10 @@ def process(
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     pitch : (length, width) in metres or a ``geometry.pitch.PitchModel``, when
-        the pitch's size is known; None: start from 105 x 68 and estimate it
-        from the clip's first views (``summary.pitch`` says what was found)
+        the pitch's size is known (default 105 x 68); "auto": start from
+        105 x 68 and estimate the size from the clip's first views
+        (:mod:`arstream.pitch_size`, experimental: ``summary.pitch`` says what
+        was found)
     pixel_aspect : a pixel's width over its height: the stream's sample aspect
         ratio by default (1 when it has none); give it for frames resized from
         another shape. The cameras' ``K[1][1] / K[0][0]`` is this aspect

@@ -229,7 +229,8 @@ class TrackStage(Stage):
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
             reach = max(1, int(round(2.0 / min(self.analysis.sx, self.analysis.sy))))  # the line-support test's 2 px of the frame
-            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach, pitch=pitch) if cls is not None else None
+            auto = isinstance(pitch, str) and pitch == "auto"
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach, pitch=None if auto else pitch, estimate_pitch=auto) if cls is not None else None
         self.tracker = tracker
         self.available = tracker is not None
         self.lag = int(lag)
