@@ -17,9 +17,12 @@ views constrain is read off the estimate's uncertainty: a dimension whose
 standard deviation is over ``max_sd`` metres (the views do not fix it) keeps
 its prior value and is reported unconstrained.
 
-The uncertainty is a delete-one-view jackknife over the views: the paint
-pixels of one view are strongly correlated (neighbouring samples of one line
-share its error), so the least-squares covariance would understate it.
+The uncertainty is the larger of a delete-one-view jackknife over the views
+and the least-squares one, which adds to the pixels' noise a systematic
+error of each marking of each view as a whole (``systematic_px``): the paint
+pixels of one line share its error (its centre on a compressed, blurred
+picture), so the noise alone would understate it, and views alike leave
+the jackknife near zero.
 
 Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
 spot); pixels of the views' frames.
@@ -193,7 +196,7 @@ def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
     return px
 
 
-def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None):
+def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None, systematic_px=1.0):
     """The joint least squares over ``views`` (a list of indices into ``views``):
     returns (x, cameras, rms, matches). ``free``: (length free, width free)."""
     nv = len(indices)
@@ -280,11 +283,22 @@ def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, s
     J = J[inl]
     # (a direction the views leave open keeps its huge variance: eigenvalues are
     # floored, not dropped as a pseudo-inverse would)
+    # Besides the noise, each marking of each view may sit ``systematic_px`` off its
+    # paint as a whole (a line's centre on a compressed, blurred picture; lens
+    # distortion beyond one term): its effect on the size, from the normal
+    # equations, adds up over those (view, marking) groups independently.
+    groups = np.concatenate([j * 10_000 + m.marking for j, m in enumerate(matches)])[inl]
     try:
         lam, V = np.linalg.eigh(J.T @ J)
         lam = np.maximum(lam, 1e-12 * max(lam.max(), 1e-300))
-        cov = (V / lam) @ V.T * max(rms, 0.3) ** 2
-        ls_sd = np.sqrt(np.maximum(np.diag(cov)[3 : 3 + nfree], 0.0))
+        Ainv = (V / lam) @ V.T
+        cov = Ainv * max(rms, 0.3) ** 2
+        rows = slice(3, 3 + nfree)
+        G = Ainv[rows] @ J.T  # (nfree, N): d(size) / d(residual)
+        _, g = np.unique(groups, return_inverse=True)
+        per_group = np.stack([np.bincount(g, weights=G[k]) for k in range(nfree)]) if nfree else np.zeros((0, 0))
+        sys_var = systematic_px**2 * (per_group**2).sum(axis=1) if nfree else np.zeros(0)
+        ls_sd = np.sqrt(np.maximum(np.diag(cov)[rows], 0.0) + sys_var)
     except np.linalg.LinAlgError:
         ls_sd = np.full(nfree, np.inf)
     sd = [np.inf, np.inf]
@@ -304,6 +318,7 @@ def estimate_pitch_size(
     max_sd: float = 0.75,
     radii=(20.0, 8.0, 3.0),
     max_points: int = 300,
+    systematic_px: float = 1.0,
 ) -> PitchSize:
     """The pitch's length and width from views of one tripod camera.
 
@@ -316,6 +331,8 @@ def estimate_pitch_size(
         this is not constrained by the views and keeps the prior's value
     radii : px, the successive association radii
     max_points : model points per view and round, evenly thinned
+    systematic_px : px, how far each marking of a view may sit off its paint as a
+        whole (the least-squares uncertainty adds its effect, marking by marking)
 
     Returns
     -------
@@ -339,7 +356,7 @@ def estimate_pitch_size(
     for _ in range(3):  # free both; fix what the views leave open; refit
         if not any(free):
             break
-        x, cams, rms, (C, L, W), ls_sd = _fit(views, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points)
+        x, cams, rms, (C, L, W), ls_sd = _fit(views, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points, systematic_px=systematic_px)
         ns = len(x) - 4 * len(views)
         # the jackknife: each view left out in turn, started from the full fit
         est = []

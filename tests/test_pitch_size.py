@@ -66,9 +66,22 @@ def test_the_size_comes_back_from_exact_views(truth):
     assert got.source == "estimated" and got.views == 5 and got.constrained == (True, True)
     # exact pixels: the fit's floor is the association's (the nearest of samples 5 cm apart)
     assert abs(got.length - truth[0]) < 0.02 and abs(got.width - truth[1]) < 0.02, got.describe()
-    assert got.length_sd < 0.1 and got.width_sd < 0.1
+    # the uncertainty is that of a 1 px error of each marking of each view as a whole
+    # (the pixels' own noise is nil here): under the 0.75 m that counts as fixed
+    assert 0.05 < got.length_sd < 0.75 and 0.05 < got.width_sd < 0.75
     assert np.linalg.norm(got.centre - (0.0, -55.0, 16.0)) < 0.05
     assert "estimated from 5 views" in got.describe()
+
+
+def test_the_uncertainty_grows_with_the_systematic_error_allowed():
+    # exact views: the least-squares part is the systematic term alone, linear in
+    # it; with none allowed, the jackknife's spread (nil for exact views) is left
+    views = _views(PitchModel(101.0, 71.0), [(0.0, 0.0), (12.0, 5.0), (25.0, 0.0), (38.0, -5.0), (45.0, 5.0)])
+    one = estimate_pitch_size(views, systematic_px=1.0)
+    two = estimate_pitch_size(views, systematic_px=2.0)
+    none = estimate_pitch_size(views, systematic_px=0.0)
+    assert abs(two.length_sd / one.length_sd - 2.0) < 0.05 and abs(two.width_sd / one.width_sd - 2.0) < 0.05
+    assert none.length_sd < 0.02 and none.width_sd < 0.02
 
 
 def test_a_length_the_views_do_not_fix_keeps_the_prior():
