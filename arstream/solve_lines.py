@@ -26,7 +26,7 @@ from itertools import combinations
 import numpy as np
 import scipy.spatial
 
-from geometry.camera import Camera, camera_near_homography, decompose_homographies, intrinsic_matrix
+from geometry.camera import Camera, camera_near_homography, decompose_homographies, homographies_from_parallel_lines, intrinsic_matrix
 from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
 from geometry.pitch import PitchModel
@@ -287,7 +287,8 @@ def cameras_from_line_pairs(
     if len(L) < 4:
         return empty
     along, across = _line_families(L, E, tol_deg)
-    if len(along) < 2 or len(across) < 2:
+    three_one = (len(along) >= 3 and len(across) == 1) or (len(across) >= 3 and len(along) == 1)
+    if (len(along) < 2 or len(across) < 2) and not three_one:
         return empty
     along, across = along[:max_family], across[:max_family]
     c = np.array([W / 2, H / 2])
@@ -306,18 +307,44 @@ def cameras_from_line_pairs(
     ys = sorted({round(sg.start[1], 6) for sg in pitch.segments if abs(sg.start[1] - sg.end[1]) < 1e-9})
     m_across = [np.array([1.0, 0.0, -x]) for x in xs]  # X = x
     m_along = [np.array([0.0, 1.0, -y]) for y in ys]  # Y = y
-    ia = list(combinations(across, 2))
-    ib = list(combinations(along, 2))
-    ma = list(combinations(range(len(xs)), 2))
-    mb = list(combinations(range(len(ys)), 2))
-    # every (image pair, model pair) of each direction: (K, 4, 3) lines
-    MA, MB = np.array(m_across), np.array(m_along)
-    ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
-    g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
-    n = len(g)
-    src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
-    dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
-    Hs, ok = homographies_from_lines(src, dst)
+    hs = []
+    if three_one:
+        # one line of a direction only (a goal line behind the net, the far side
+        # of the penalty area out of view): three lines of the other direction,
+        # ordered, against three model lines, and the one against every model
+        # line of its direction; the camera's principal point and square pixels
+        # take up the degree of freedom four such lines leave
+        # (:func:`homographies_from_parallel_lines`). (Tried also beside the pairs
+        # when both directions have two or more lines, they registered 3 more
+        # of the 51 Premier League frames, one of them wrong: not done.)
+        for par, rest, axis in ((along, across, 1), (across, along, 0)):
+            if len(par) < 3:
+                continue
+            vals, others = (ys, xs) if axis == 1 else (xs, ys)
+            for ti in combinations(par, 3):
+                for tm in combinations(range(len(vals)), 3):
+                    for one in rest:
+                        for o in others:
+                            hs.extend(homographies_from_parallel_lines(L[list(ti)], [vals[m] for m in tm], L[one], o, principal_point, axis=axis))
+    Hs = np.array(hs).reshape(-1, 3, 3)
+    ok = np.ones(len(Hs), bool)
+    n = len(Hs)
+    if len(along) >= 2 and len(across) >= 2:
+        ia = list(combinations(across, 2))
+        ib = list(combinations(along, 2))
+        ma = list(combinations(range(len(xs)), 2))
+        mb = list(combinations(range(len(ys)), 2))
+        # every (image pair, model pair) of each direction: (K, 4, 3) lines
+        MA, MB = np.array(m_across), np.array(m_along)
+        ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
+        g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
+        n += len(g)
+        src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
+        dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
+        H4, ok4 = homographies_from_lines(src, dst)
+        Hs, ok = np.concatenate([H4, Hs]), np.concatenate([ok4, ok])
+    if not len(Hs):
+        return LineHypotheses([], np.zeros(0), n, 0)
     poses = decompose_homographies(Hs[ok], principal_point)
     C, f = poses.centre, poses.focal
     good = poses.ok & (C[:, 1] < -hw - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * W) & (f < 12 * W)

@@ -42,6 +42,7 @@ __all__ = [
     "camera_from_homography",
     "HomographyPoses",
     "decompose_homographies",
+    "homographies_from_parallel_lines",
     "iac",
     "K_from_iac",
     "rotation_from_ptr",
@@ -577,3 +578,95 @@ def undistort_normalized(xd, dist, iterations: int = 20) -> np.ndarray:
             factor = factor + k * rp
         xu = xd / factor[:, None]
     return xu
+
+
+def homographies_from_parallel_lines(lines, values, transversal, value: float, principal_point, *, axis: int) -> np.ndarray:
+    """Plane-to-image homographies of a camera with square pixels and a known
+    principal point from three parallel plane lines and one across them.
+
+    The plane lines are ``X[axis] = values[i]`` (three, parallel) and
+    ``X[1 - axis] = value`` (perpendicular to them); ``lines`` and
+    ``transversal`` are their images. The three parallel lines meet in their
+    vanishing point; they cut the transversal in three points whose places
+    along the plane line are known, so the 1-D projective map along it, and
+    with it the transversal's vanishing point, follow (cross-ratio). The two
+    vanishing points of perpendicular directions give the focal length
+    (``f^2 = -(v1 - p) . (v2 - p)``) and the rotation's first two columns, and
+    the three points the translation (least squares over their depths).
+    Four line correspondences fix a homography only with four independent
+    lines; three parallel ones and a transversal leave one degree of freedom,
+    which the camera's known principal point and square pixels take up.
+
+    Parameters
+    ----------
+    lines : (3, 3) image lines of the parallel plane lines, in the order of ``values``
+    values : (3,) their coordinates (distinct)
+    transversal : (3,) image line of the perpendicular plane line
+    value : its coordinate
+    principal_point : (2,) pixels
+    axis : 0 when the parallel lines are ``X = values[i]``, 1 when ``Y = values[i]``
+
+    Returns
+    -------
+    (k, 3, 3) float64 homographies ``x_img ~ H (X, Y, 1)``, k from 0 (degenerate:
+    a vanishing point at infinity, no real focal length, points behind the
+    camera) to 4 (the directions' signs, which the lines do not tell; the
+    translation takes up either sign of the parallel lines' direction)
+    """
+    L = np.asarray(lines, dtype=np.float64).reshape(3, 3)
+    vals = np.asarray(values, dtype=np.float64).reshape(3)
+    lt = np.asarray(transversal, dtype=np.float64).reshape(3)
+    p = np.asarray(principal_point, dtype=np.float64)
+    empty = np.zeros((0, 3, 3))
+    # the parallel lines' vanishing point: the null vector of the three (normalised) lines
+    Ln = L / np.linalg.norm(L[:, :2], axis=1, keepdims=True)
+    v_par = np.linalg.svd(Ln)[2][-1]
+    # their crossings with the transversal, and the 1-D map along it
+    A = np.cross(Ln, lt)
+    if np.any(np.abs(A[:, 2]) < 1e-12):
+        return empty
+    A = A[:, :2] / A[:, 2:]
+    d = np.array([lt[1], -lt[0]]) / np.hypot(lt[0], lt[1])
+    s = (A - A[0]) @ d
+    # s = (a v + b) / (c v + 1): a v_i + b - c v_i s_i = s_i
+    M = np.column_stack([vals, np.ones(3), -vals * s])
+    try:
+        a, b, c = np.linalg.solve(M, s)
+    except np.linalg.LinAlgError:
+        return empty
+    v_tr = np.array([A[0, 0] * c + d[0] * a, A[0, 1] * c + d[1] * a, c])  # image of value -> infinity
+    if abs(v_par[2]) < 1e-12 * np.linalg.norm(v_par) or abs(v_tr[2]) < 1e-12 * np.linalg.norm(v_tr):
+        return empty
+    q_par, q_tr = v_par[:2] / v_par[2] - p, v_tr[:2] / v_tr[2] - p
+    f2 = -float(q_par @ q_tr)
+    if not f2 > 0:
+        return empty
+    f = np.sqrt(f2)
+    K = intrinsic_matrix(f, p[0], p[1])
+    Ki = np.linalg.inv(K)
+    r_par = Ki @ np.append(q_par + p, 1.0)
+    r_tr = Ki @ np.append(q_tr + p, 1.0)
+    r_par /= np.linalg.norm(r_par)
+    r_tr /= np.linalg.norm(r_tr)
+    # plane X direction is the parallel lines' direction when they are Y = const
+    out = []
+    for s1 in (1.0, -1.0):
+        for s2 in (1.0, -1.0):
+            rx, ry = (s1 * r_par, s2 * r_tr) if axis == 1 else (s2 * r_tr, s1 * r_par)
+            U, _, Vt = np.linalg.svd(np.column_stack([rx, ry]), full_matrices=False)
+            rx, ry = (U @ Vt).T
+            # points (X, Y) on the transversal: depth_i * K^-1 a_i - t = rx X_i + ry Y_i
+            P = np.column_stack([np.full(3, value), vals]) if axis == 1 else np.column_stack([vals, np.full(3, value)])
+            rays = (Ki @ np.column_stack([A, np.ones(3)]).T).T
+            G = np.zeros((9, 6))
+            rhs = np.zeros(9)
+            for i in range(3):
+                G[3 * i : 3 * i + 3, i] = rays[i]
+                G[3 * i : 3 * i + 3, 3:] = -np.eye(3)
+                rhs[3 * i : 3 * i + 3] = rx * P[i, 0] + ry * P[i, 1]
+            sol = np.linalg.lstsq(G, rhs, rcond=None)[0]
+            if not np.all(sol[:3] > 0):
+                continue
+            H = K @ np.column_stack([rx, ry, sol[3:]])
+            out.append(H / np.linalg.norm(H))
+    return np.array(out) if out else empty

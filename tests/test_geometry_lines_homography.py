@@ -191,3 +191,54 @@ def test_homography_noise_is_bounded():
 def test_degenerate_inputs(call, message):
     with pytest.raises(ValueError, match=message):
         call()
+
+
+# --- a calibrated camera from three parallel lines and one across them ---------
+def _looking_at(centre, target, f, size=(1280, 720)):
+    from geometry.camera import Camera, intrinsic_matrix
+
+    c, z = np.asarray(centre, float), np.asarray(target, float) - np.asarray(centre, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    R = np.array([x, np.cross(z, x), z])
+    return Camera(K=intrinsic_matrix(f, (size[0] - 1) / 2, (size[1] - 1) / 2), R=R, t=-R @ c)
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_homographies_from_parallel_lines_recover_the_camera(axis):
+    from geometry.camera import homographies_from_parallel_lines
+    from geometry.lines import line_through
+
+    cam = _looking_at((30.0, -60.0, 15.0), (40.0, 5.0, 0.0), 1500.0)
+
+    def image_line(p, q):
+        a, b = cam.project(np.array([[*p, 0.0], [*q, 0.0]]))
+        return line_through((*a, 1.0), (*b, 1.0))
+
+    if axis == 1:  # Y = const, and X = 36 across
+        vals, value = [-20.16, 20.16, 33.94], 36.0
+        lines = [image_line((20, y), (50, y)) for y in vals]
+        across = image_line((value, -30), (value, 30))
+    else:  # X = const, and Y = 20.16 across
+        vals, value = [36.0, 46.98, 52.44], 20.16
+        lines = [image_line((x, -25), (x, 25)) for x in vals]
+        across = image_line((30, value), (52, value))
+    Hs = homographies_from_parallel_lines(lines, vals, across, value, cam.principal_point, axis=axis)
+    truth = cam.K @ np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.t])
+    truth /= np.linalg.norm(truth)
+    assert 1 <= len(Hs) <= 4
+    # one of them is the camera's, to rounding (unit-norm matrices, either sign)
+    assert min(min(np.abs(h - truth).max(), np.abs(h + truth).max()) for h in Hs) < 1e-9
+
+
+def test_homographies_from_parallel_lines_degenerate_inputs():
+    from geometry.camera import homographies_from_parallel_lines
+
+    pp = (639.5, 359.5)
+    # parallel in the picture too (their vanishing point at infinity): no focal length
+    flat = [np.array([0.0, 1.0, -y]) for y in (300.0, 400.0, 500.0)]
+    assert len(homographies_from_parallel_lines(flat, [-20.0, 0.0, 20.0], np.array([1.0, 0.0, -600.0]), 0.0, pp, axis=1)) == 0
+    # two of the values the same: no 1-D map along the transversal
+    conv = [np.array([0.1, 1.0, -300.0]), np.array([0.0, 1.0, -400.0]), np.array([-0.1, 1.0, -500.0])]
+    assert len(homographies_from_parallel_lines(conv, [0.0, 0.0, 20.0], np.array([1.0, 0.0, -600.0]), 0.0, pp, axis=1)) == 0

@@ -21,6 +21,7 @@ from arstream.detect.paint import grass_beside, paint_lines, paint_mask
 from arstream.evaluate import frame_error
 from arstream.initialise import paint_view, register_frame
 from arstream.solve_lines import cameras_from_line_pairs
+from geometry.lines import line_through
 from arstream.support import bright_mask, line_support, marking_points
 from geometry.camera import Camera, camera_from_ptz, camera_near_homography, PTZ
 from geometry.pitch import PitchModel
@@ -218,6 +219,39 @@ def test_cameras_from_line_pairs_need_two_lines_of_each_direction():
     ends = [np.array([[100.0, 300.0], [900.0, 300.0]]), np.array([[100.0, 398.0], [900.0, 382.0]]), np.array([[100.0, 496.0], [900.0, 464.0]])]
     hy = cameras_from_line_pairs(one_way, ends, (1280, 720), cam.principal_point, near)
     assert hy.cameras == [] and hy.n_tried == 0
+
+
+def _visible_lines(cam, size, min_px=100.0):
+    """The straight markings ``cam`` shows at least ``min_px`` long: (image line, ends, across?)."""
+    W, H = size
+    out = []
+    for sg in PITCH.segments:
+        px = cam.project(np.column_stack([sg.sample(0.1), np.zeros(len(sg.sample(0.1)))]))
+        ok = np.all(np.isfinite(px), axis=1) & (px[:, 0] >= 0) & (px[:, 0] < W) & (px[:, 1] >= 0) & (px[:, 1] < H)
+        if ok.sum() < 2 or np.linalg.norm(px[ok][-1] - px[ok][0]) < min_px:
+            continue
+        a, b = px[ok][0], px[ok][-1]
+        out.append((line_through((*a, 1.0), (*b, 1.0)), np.array([a, b]), abs(sg.start[0] - sg.end[0]) < 1e-9))
+    return out
+
+
+def test_cameras_from_line_pairs_with_one_line_across():
+    # three lines along the touchlines and one across them (the goal line behind
+    # the net, the far side out of view): four lines leave one degree of freedom
+    # of a homography, which the camera's principal point and square pixels fix
+    cam, img = _penalty_view()
+    H, W = img.shape[:2]
+    seen = _visible_lines(cam, (W, H))
+    along = [x for x in seen if not x[2]]
+    across = max((x for x in seen if x[2]), key=lambda x: np.linalg.norm(x[1][1] - x[1][0]))
+    assert len(along) >= 3
+    use = along + [across]
+    near = cv2.dilate(paint_mask(img), np.ones((5, 5), np.uint8))
+    hy = cameras_from_line_pairs([x[0] for x in use], [x[1] for x in use], (W, H), cam.principal_point, near, PITCH)
+    assert hy.cameras and hy.n_plausible > 0
+    best = min(frame_error(cam, c, (W, H), PITCH.sample_points(0.5), PITCH.symmetries).mean for c in hy.cameras[:3])
+    # exact lines: what is left is the scoring grid's and the nearest camera's
+    assert best < 2.0, best
 
 
 # ---------------------------------------------------------------------------
