@@ -1,0 +1,80 @@
+"""The shared real clips through ``arstream.process`` against issue 29's
+targets, with their reference cameras (tests/data/real_reference, made
+independently by bench/reference_cameras.py) and ``arstream eval --video``'s
+ground-truth-free figures (docs/evaluate.md). Skipped where ../shared is absent.
+
+The targets: a camera on >= 95 % of the frames, median line support >= 0.8,
+>= 90 % of the frames at >= 0.7, no frame drawn below 0.5, the mean
+distance to the reference <= 5 px (of a 1280-wide frame) on >= 90 % of the
+reference frames, a jitter proxy <= 1 px. Where a clip does not meet one
+yet (docs/real-footage.md says which and why), the test holds it to what it
+does today, so that a regression fails; the bound says so.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from arstream.evaluate import frame_error
+from arstream.evaluate_video import evaluate_video
+from arstream.pipeline import process
+from geometry.camera import Camera
+from geometry.pitch import PitchModel
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared" / "data" / "real-broadcast"
+REFERENCE = ROOT / "tests" / "data" / "real_reference"
+
+pytestmark = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+
+
+def _references(item: str) -> dict[int, tuple[Camera, PitchModel]]:
+    doc = json.loads((REFERENCE / f"{item}.json").read_text())
+    return {e["frame"]: (Camera.from_dict(e["camera"]), PitchModel(e["pitch"]["length"], e["pitch"]["width"])) for e in doc["frames"] if "camera" in e}
+
+
+def _run(tmp_path, clip: str, pitch=None):
+    out = tmp_path / f"{clip}.jsonl"
+    s = process(SHARED / "clips" / f"{clip}.mp4", cameras_out=out, pitch=pitch, handle_signals=False)
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    score = evaluate_video(SHARED / "clips" / f"{clip}.mp4", records, pitch=PitchModel(*pitch) if pitch else None)
+    by_frame = {r["frame"]: r for r in records}
+    dist = {}
+    for frame, (ref, ref_pitch) in _references(clip).items():
+        r = by_frame.get(frame)
+        if r is None or r.get("K") is None:
+            dist[frame] = np.inf
+            continue
+        got = Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ()))
+        err = frame_error(ref, got, (1280, 720), ref_pitch.sample_points(0.25), ref_pitch.symmetries[:1])
+        dist[frame] = err.mean
+    return s, score, dist
+
+
+def test_artificial_turf_with_its_pitch_size(tmp_path):
+    # a 99.85 x 67.72 m pitch, told 100 x 68; lines of other sports across it
+    s, score, dist = _run(tmp_path, "artificial_turf_multisport", (100.0, 68.0))
+    assert s.frames == 176
+    assert score.coverage >= 0.95, score
+    assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
+    assert score.drawn_below_0_5 == 0, score
+    assert len(dist) == 8 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
+    # target 1 px: not met (1.31 px on 2026-11-27); held to today's level
+    assert score.jitter_1280 <= 2.0, score
+
+
+def test_israel_league_wide(tmp_path):
+    s, score, dist = _run(tmp_path, "israel_league_wide")
+    assert s.frames == 404
+    # target 95 %: not met (the first 88 frames, a centre-circle view, get no
+    # camera: 78.2 % on 2026-11-27); held to today's level
+    assert score.coverage >= 0.75, score
+    assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
+    assert score.drawn_below_0_5 == 0, score
+    assert len(dist) == 13 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
+    # target 1 px: not met (2.08 px); held to today's level
+    assert score.jitter_1280 <= 3.0, score
