@@ -91,6 +91,7 @@ class TrackerConfig:
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
+    paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
     pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
     pitch_spacing: int = 5  # frames between two views for the size estimate
     pitch_support: float = 0.7  # least line support of a view for the size estimate
@@ -331,6 +332,12 @@ class Tracker:
         vf = float(cov[names.index("logf"), names.index("logf")]) if np.isfinite(cov[names.index("logf"), names.index("logf")]) else 1e-4
         va = max(va, 1e-9) * 4.0
         vf = max(vf, 1e-9) * 4.0
+        if self._paint:
+            # real frames: the paint pixels are whole mask pixels, and the neighbours
+            # along a painted line share its error, so the refinement's covariance
+            # (independent pixels) understates the noise of a measurement
+            va *= self.cfg.paint_noise
+            vf *= self.cfg.paint_noise
         return np.diag([va, va, va, vf])
 
     # --- public API --------------------------------------------------------------

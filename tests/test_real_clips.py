@@ -6,7 +6,7 @@ ground-truth-free figures (docs/evaluate.md). Skipped where ../shared is absent.
 The targets: a camera on >= 95 % of the frames, median line support >= 0.8,
 >= 90 % of the frames at >= 0.7, no frame drawn below 0.5, the mean
 distance to the reference <= 5 px (of a 1280-wide frame) on >= 90 % of the
-reference frames, a jitter proxy <= 1 px. Where a clip does not meet one
+reference frames, a jitter proxy <= 1 px (of a 1280-wide frame). Where a clip does not meet one
 yet (docs/real-footage.md says which and why), the test holds it to what it
 does today, so that a regression fails; the bound says so.
 """
@@ -63,8 +63,7 @@ def test_artificial_turf_with_its_pitch_size(tmp_path):
     assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
     assert score.drawn_below_0_5 == 0, score
     assert len(dist) == 8 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
-    # target 1 px: not met (1.31 px on 2026-11-27); held to today's level
-    assert score.jitter_1280 <= 2.0, score
+    assert score.jitter_1280 <= 1.0, score  # (0.96 px on 2026-11-27)
 
 
 def test_israel_league_wide(tmp_path):
@@ -76,5 +75,6 @@ def test_israel_league_wide(tmp_path):
     assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
     assert score.drawn_below_0_5 == 0, score
     assert len(dist) == 13 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
-    # target 1 px: not met (2.08 px); held to today's level
-    assert score.jitter_1280 <= 3.0, score
+    # target 1 px: not met (1.19 px; a jump where the tripod centre is frozen);
+    # held to today's level
+    assert score.jitter_1280 <= 1.5, score
