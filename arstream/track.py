@@ -848,7 +848,12 @@ class Tracker:
                 self._centres.append(r.camera.center)
                 if len(self._centres) >= self.cfg.centre_frames:
                     self.centre = np.median(np.array(self._centres), axis=0)
-                    self._kf = None  # restart the filter about the frozen centre
+                    if self._paint and self._kf is not None:
+                        # real frames: keep the filter's rates (a pan goes on); its angles
+                        # were about each frame's own centre: widen them, not restart
+                        self._kf.P[0::2, 0::2] += np.diag([1e-4, 1e-4, 1e-4, 1e-3])
+                    else:
+                        self._kf = None  # restart the filter about the frozen centre
         if self.k1 != 0.0 and r.camera.dist and r.n_visible >= 250 and r.confidence >= 0.7:
             # k1 scales like 1/f for a zoom lens: keep k1 * f samples
             self._k1_samples.append(r.camera.dist[0] * r.camera.focal)
