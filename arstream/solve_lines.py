@@ -34,25 +34,18 @@ from geometry.pitch import PitchModel
 __all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses"]
 
 
-def _vp_family(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> tuple[np.ndarray | None, list[int]]:
-    """The vanishing point shared by the most lines (pairwise intersections as
-    hypotheses); returns (point (3,), inlier indices). With ``ends``, "most"
-    is the largest total length of the segments (two long markings outweigh
-    three players' legs).
+def _vp_candidates(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> list[tuple[np.ndarray, list[int]]]:
+    """Candidate vanishing points (pairwise intersections of the lines) with the
+    lines that point at each: [(point (3,), inlier indices)].
 
     With the segments' endpoints ``ends`` (N, 2, 2), a line counts only when the
     point lies beyond its segment: parallel pitch lines meet on the horizon,
     above every pitch pixel, never between a segment's ends (where lines of
     both directions meet at a corner of the markings, which is no vanishing
     point)."""
-    best_v, best_in = None, []
+    out = []
     n = len(L)
     tol = np.sin(np.radians(tol_deg))
-    seg_len = None if ends is None else np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
-
-    def weight(idx):
-        return len(idx) if seg_len is None else float(seg_len[idx].sum())
-
     for a in range(n):
         for b in range(a + 1, n):
             v = np.cross(L[a], L[b])
@@ -75,8 +68,23 @@ def _vp_family(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends
                     if t0 - 0.25 * half < t < t1 + 0.25 * half:
                         continue
                 inl.append(k)
-            if weight(inl) > weight(best_in):
-                best_v, best_in = v, inl
+            out.append((v, inl))
+    return out
+
+
+def _vp_family(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> tuple[np.ndarray | None, list[int]]:
+    """The vanishing point shared by the most lines (:func:`_vp_candidates`);
+    returns (point (3,), inlier indices). With ``ends``, "most" is the largest
+    total length of the segments (two long markings outweigh three players' legs)."""
+    seg_len = None if ends is None else np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+
+    def weight(idx):
+        return len(idx) if seg_len is None else float(seg_len[idx].sum())
+
+    best_v, best_in = None, []
+    for v, inl in _vp_candidates(L, mids, tol_deg, ends):
+        if weight(inl) > weight(best_in):
+            best_v, best_in = v, inl
     return best_v, best_in
 
 
@@ -209,17 +217,52 @@ class LineHypotheses:
     n_plausible: int
 
 
-def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float) -> tuple[list[int], list[int]]:
+def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_point=None, width: float | None = None) -> tuple[list[int], list[int]]:
     """Split lines (N, 3) with segment ends (N, 2, 2) into the pitch's two
-    directions: (along the touchlines, across them), by the two vanishing
-    points with the most lines (:func:`_vp_family`); the flatter family is "along"."""
+    directions: (along the touchlines, across them), by two vanishing points
+    (:func:`_vp_candidates`); the flatter family is "along".
+
+    Without a ``principal_point`` (or without such a pair): the point with the
+    most line length, then the one with the most of the rest. With it (2,) and the frame's
+    ``width``: the two points with the most line length together that make a
+    camera: vanishing points ``v1``, ``v2`` of perpendicular directions give
+    ``f^2 = -(v1 - p) . (v2 - p)``, which must lie between (0.3 width)^2 and
+    (12 width)^2 (a touchline, an arc's piece and a line across can share a
+    point that the longest family's lines do not make a camera with)."""
     mids = ends.mean(axis=1)
-    _, in1 = _vp_family(list(L), mids, tol_deg, ends)
-    rest = [k for k in range(len(L)) if k not in in1]
-    if len(in1) < 2 or not rest:
-        return [], []
-    _, in2r = _vp_family([L[k] for k in rest], mids[rest], tol_deg, ends[rest])
-    in2 = [rest[k] for k in in2r] if len(rest) >= 2 else rest
+    in1, in2 = [], []
+    if principal_point is not None and width is not None:
+        seg_len = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+        p = np.asarray(principal_point, float)
+        cands = [(v, inl) for v, inl in _vp_candidates(list(L), mids, tol_deg, ends) if inl]
+        best, in1, in2 = -1.0, [], []
+        lo, hi = (0.3 * width) ** 2, (12.0 * width) ** 2
+        for i, (va, ia) in enumerate(cands):
+            if len(ia) < 2:
+                continue
+            for j, (vb, ib) in enumerate(cands):
+                if j == i:
+                    continue
+                ib2 = [k for k in ib if k not in ia]
+                if not ib2:
+                    continue
+                if abs(va[2]) > 1e-9 and abs(vb[2]) > 1e-9:
+                    f2 = -float((va[:2] / va[2] - p) @ (vb[:2] / vb[2] - p))
+                    if not lo <= f2 <= hi:
+                        continue
+                w = float(seg_len[ia].sum() + seg_len[ib2].sum())
+                if w > best:
+                    best, in1, in2 = w, list(ia), ib2
+    if len(in1) < 2 or not in2:
+        # (no such pair, or no principal point: the point with the most line
+        # length, then the one with the most of the rest; a single line left is
+        # a family of its own, with no point to check)
+        _, in1 = _vp_family(list(L), mids, tol_deg, ends)
+        rest = [k for k in range(len(L)) if k not in in1]
+        if len(in1) < 2 or not rest:
+            return [], []
+        _, in2r = _vp_family([L[k] for k in rest], mids[rest], tol_deg, ends[rest])
+        in2 = [rest[k] for k in in2r] if len(rest) >= 2 else rest
     if not in2:
         return [], []
 
@@ -286,7 +329,7 @@ def cameras_from_line_pairs(
     empty = LineHypotheses([], np.zeros(0), 0, 0)
     if len(L) < 4:
         return empty
-    along, across = _line_families(L, E, tol_deg)
+    along, across = _line_families(L, E, tol_deg, principal_point, W)
     three_one = (len(along) >= 3 and len(across) == 1) or (len(across) >= 3 and len(along) == 1)
     if (len(along) < 2 or len(across) < 2) and not three_one:
         return empty
