@@ -24,7 +24,7 @@ import numpy as np
 from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera, solve_from_circle
-from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs
+from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible
 from arstream.support import backed_support, backs, line_support, marking_points, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic
@@ -166,7 +166,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     the paint grown by about 2.5 px at 1280 wide) are refined against the
     paint pixels, with one radial coefficient when the view has enough
     markings; the refined camera with the highest line support
-    on white paint (:func:`arstream.support.line_support`) wins. Returns (refinement, its
+    on white paint (:func:`arstream.support.line_support`) wins, among those
+    still plausible (:func:`arstream.solve_lines.plausible`). Returns (refinement, its
     support), or (None, None) when no hypothesis was found.
     """
     W, H = size
@@ -192,6 +193,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
         s0 = line_support(rf.camera, view.bright, points).share or 0.0
         if sk > s0 + 0.01:
             rf, s0 = rk, sk
+        if not plausible(rf.camera.center, rf.camera.focal, W, pitch)[0]:
+            continue  # the refinement left the cameras a broadcast can have (one marking along one line)
         if s0 > best_s:
             best, best_s = rf, s0
     return (best, best_s) if best is not None else (None, None)

@@ -31,7 +31,7 @@ from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
 from geometry.pitch import PitchModel
 
-__all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses"]
+__all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses", "plausible"]
 
 
 def _vp_candidates(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> list[tuple[np.ndarray, list[int]]]:
@@ -273,6 +273,29 @@ def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_po
     return a, b
 
 
+def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchModel) -> np.ndarray:
+    """Which cameras could be a main broadcast camera: above the pitch (3-80 m),
+    outside the near touchline by 3 m, within 20 m of the goal lines' extent,
+    with a focal length from 0.3 to 12 frame widths.
+
+    Parameters
+    ----------
+    centre : (K, 3) camera centres, pitch frame, metres
+    focal : (K,) focal lengths, pixels
+    width : frame width, pixels
+    pitch : PitchModel
+
+    Returns
+    -------
+    (K,) bool
+    """
+    C = np.asarray(centre, float).reshape(-1, 3)
+    f = np.asarray(focal, float).reshape(-1)
+    hl, hw = pitch.length / 2, pitch.width / 2
+    with np.errstate(invalid="ignore"):
+        return (C[:, 1] < -hw - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * width) & (f < 12 * width)
+
+
 def cameras_from_line_pairs(
     lines,
     endpoints,
@@ -299,8 +322,8 @@ def cameras_from_line_pairs(
     sides; goal lines, goal-area and penalty-area fronts, the halfway line),
     fixes a homography (four line correspondences, :func:`homographies_from_lines`).
     With the principal point it gives a camera (:func:`decompose_homographies`),
-    kept when plausible (above the pitch, outside the near touchline, a focal
-    length from 0.3 to 12 widths). Each is scored by the model's markings
+    kept when plausible (:func:`plausible`: above the pitch, outside the near
+    touchline, a focal length from 0.3 to 12 widths). Each is scored by the model's markings
     sampled every ``spacing`` m: ``hits / (in view + 30)``, hits being
     samples that land on a non-zero pixel of ``near`` (paint, grown by the
     tolerance); the 30 keeps a view of one short stretch from winning.
@@ -390,7 +413,7 @@ def cameras_from_line_pairs(
         return LineHypotheses([], np.zeros(0), n, 0)
     poses = decompose_homographies(Hs[ok], principal_point)
     C, f = poses.centre, poses.focal
-    good = poses.ok & (C[:, 1] < -hw - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * W) & (f < 12 * W)
+    good = poses.ok & plausible(C, f, W, pitch)
     idx = np.flatnonzero(good)
     if not len(idx):
         return LineHypotheses([], np.zeros(0), n, 0)
@@ -489,7 +512,7 @@ def cameras_from_line_pairs(
         Hx = np.array(Hx)
         p2 = decompose_homographies(Hx, principal_point)
         C2, f2 = p2.centre, p2.focal
-        ok = p2.ok & (C2[:, 1] < -hw - 3) & (C2[:, 2] > 3) & (C2[:, 2] < 80) & (np.abs(C2[:, 0]) < hl + 20) & (f2 > 0.3 * W) & (f2 < 12 * W)
+        ok = p2.ok & plausible(C2, f2, W, pitch)
         s2 = score(Hx)
         for i in np.flatnonzero(ok & (s2 > scores[np.array(cand)])):
             scores[cand[i]] = s2[i]

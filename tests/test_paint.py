@@ -212,6 +212,25 @@ def test_cameras_from_line_pairs_find_a_penalty_area_view():
     assert best < 6.0, best
 
 
+@pytest.mark.parametrize(
+    "centre, focal, expect",
+    [
+        ((-8.0, -62.0, 15.0), 2048.0, True),  # the penalty view's camera
+        ((-8.0, -62.0, 2.0), 2048.0, False),  # below 3 m
+        ((-8.0, -62.0, 90.0), 2048.0, False),  # above 80 m
+        ((-8.0, -35.0, 15.0), 2048.0, False),  # not 3 m outside the near touchline
+        ((80.0, -62.0, 15.0), 2048.0, False),  # beyond the goal lines by more than 20 m
+        ((-8.0, -62.0, 15.0), 300.0, False),  # a focal length under 0.3 widths (a fisheye's)
+        ((-8.0, -62.0, 15.0), 16000.0, False),  # over 12 widths
+        ((-8.0, -62.0, float("nan")), 2048.0, False),
+    ],
+)
+def test_plausible_broadcast_cameras(centre, focal, expect):
+    from arstream.solve_lines import plausible
+
+    assert plausible(np.array([centre]), np.array([focal]), 1280, PITCH).tolist() == [expect]
+
+
 def test_cameras_from_line_pairs_need_two_lines_of_each_direction():
     cam, img = _penalty_view()
     near = np.ones((720, 1280), np.uint8)
