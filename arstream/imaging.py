@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["THUMBNAIL_SIZE", "grey_thumbnail", "sample_bilinear", "shrink"]
+__all__ = ["THUMBNAIL_SIZE", "grey_thumbnail", "sample_bilinear", "scale_to", "shrink"]
 
 #: (w, h) of :func:`grey_thumbnail` (at most: smaller images keep their size)
 THUMBNAIL_SIZE = (64, 36)
@@ -50,6 +50,28 @@ def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None
         img = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
         return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_LINEAR)
     return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_AREA)
+
+
+def scale_to(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None) -> np.ndarray:
+    """Scale an image to ``size`` (w, h): :func:`shrink` when neither axis grows,
+    else OpenCV's bilinear resampling (a frame of wide pixels stretched to
+    square ones grows along its width: 512 x 512 shown 16:9 becomes 640 x 360).
+
+    Parameters
+    ----------
+    src : (H, W) or (H, W, C) uint8 or float32 image
+    size : (w, h) target size
+    dst : optional output array of shape (h, w[, C]) and the source's dtype
+
+    Returns
+    -------
+    The scaled image (``dst`` when given).
+    """
+    w, h = int(size[0]), int(size[1])
+    H, W = src.shape[:2]
+    if w <= W and h <= H:
+        return shrink(src, (w, h), dst=dst)
+    return cv2.resize(src, (w, h), dst=dst, interpolation=cv2.INTER_LINEAR)
 
 
 def grey_thumbnail(image: np.ndarray, *, video_range: bool = False) -> np.ndarray:

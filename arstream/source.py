@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 import threading
 import time
@@ -147,8 +148,33 @@ def _is_url(path: str) -> bool:
     return "://" in path
 
 
+#: file name endings of the frames a folder may hold (:class:`VideoSource`)
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+def _image_sequence(folder: str) -> tuple[int, str]:
+    """(number of frames, their suffix) of a folder of numbered images, which
+    must sort by name in frame order (zero-padded numbers). InputError
+    otherwise."""
+    names = sorted(n for n in os.listdir(folder) if n.lower().endswith(IMAGE_SUFFIXES) and not n.startswith("."))
+    if not names:
+        raise InputError(f"{folder} is a folder without images ({', '.join(IMAGE_SUFFIXES)}): give a video file or a folder of numbered frames")
+    suffixes = {os.path.splitext(n)[1] for n in names}
+    if len(suffixes) > 1:
+        raise InputError(f"{folder} holds images of several kinds ({', '.join(sorted(suffixes))}): one kind of numbered frames a folder")
+
+    def natural(n):
+        return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", n)]
+
+    if sorted(names, key=natural) != names:
+        raise InputError(f"{folder}: the frames' names do not sort in frame order (number them with zero padding: frame_0001{suffixes.pop()}, ...)")
+    return len(names), suffixes.pop()
+
+
 class VideoSource:
-    """Decode a video file, URL (rtsp/http/udp...) or device with PyAV.
+    """Decode a video file, URL (rtsp/http/udp...), device, or a folder of
+    numbered frames (in name order, zero-padded numbers, 25 fps unless the
+    ``framerate`` option says otherwise) with PyAV.
 
     Use as a context manager and iterate::
 
@@ -191,8 +217,13 @@ class VideoSource:
         is_url = _is_url(self.path)
         if not is_url and format is None and not os.path.exists(self.path):
             raise InputError(f"input not found: {self.path}")
+        sequence = None
         if not is_url and format is None and os.path.isdir(self.path):
-            raise InputError(f"{self.path} is a folder, not a video file")
+            # a folder of numbered frames: FFmpeg's image sequence demuxer, in name order
+            sequence = _image_sequence(self.path)
+            format = "image2"
+            options = {"pattern_type": "glob", "framerate": "25", **(options or {})}
+            self.path = os.path.join(self.path, "*" + sequence[1])
         kwargs = {}
         self.read_timeout = read_timeout if is_url and read_timeout else None
         if is_url and (open_timeout or self.read_timeout):
@@ -220,8 +251,8 @@ class VideoSource:
         #: a pixel's width over its height (the stream's sample aspect ratio; 1 when unset)
         self.pixel_aspect = float(sar) if sar and float(sar) > 0 else 1.0
         self.time_base = self.stream.time_base
-        self.frame_count = int(self.stream.frames or 0)  # 0 when the container does not say
-        self.is_live = is_url or format is not None
+        self.frame_count = int(self.stream.frames or 0) or (sequence[0] if sequence else 0)  # 0 when the container does not say
+        self.is_live = is_url or (format is not None and sequence is None)
         self.errors: list[str] = []
         self.read_error: str | None = None
         self._read_error_entry: str | None = None

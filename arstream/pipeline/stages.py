@@ -17,7 +17,7 @@ import numpy as np
 
 from arstream.errors import ArstreamError, InputError
 from arstream.estimate import CameraEstimate
-from arstream.imaging import grey_thumbnail, shrink
+from arstream.imaging import grey_thumbnail, scale_to
 from arstream.pipeline.stage import Item, Stage, _matte_of
 from arstream.sink import JsonlWriter
 from arstream.source import Frame, i420_planes
@@ -105,11 +105,11 @@ class Analysis:
         if frame.yuv is not None and not frame.has_image:
             buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
             src, dst = i420_planes(frame.yuv, frame.width, frame.height), i420_planes(buf, self.w, self.h)
-            shrink(src[0], (self.w, self.h), dst=dst[0])
+            scale_to(src[0], (self.w, self.h), dst=dst[0])
             for k in (1, 2):
-                shrink(src[k], (self.w // 2, self.h // 2), dst=dst[k])
+                scale_to(src[k], (self.w // 2, self.h // 2), dst=dst[k])
             return {"analysis": cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420), "thumbnail": grey_thumbnail(dst[0], video_range=True)}
-        return {"analysis": shrink(frame.image, (self.w, self.h))}
+        return {"analysis": scale_to(frame.image, (self.w, self.h))}
 
     def image(self, item: Item) -> np.ndarray:
         """BGR (h, w, 3) of the item's frame at the analysis size (cached on the
