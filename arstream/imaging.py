@@ -53,20 +53,9 @@ def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None
 
 
 def scale_to(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None) -> np.ndarray:
-    """Scale an image to ``size`` (w, h): :func:`shrink` when neither axis grows,
-    else OpenCV's bilinear resampling (a frame of wide pixels stretched to
-    square ones grows along its width: 512 x 512 shown 16:9 becomes 640 x 360).
-
-    Parameters
-    ----------
-    src : (H, W) or (H, W, C) uint8 or float32 image
-    size : (w, h) target size
-    dst : optional output array of shape (h, w[, C]) and the source's dtype
-
-    Returns
-    -------
-    The scaled image (``dst`` when given).
-    """
+    """:func:`shrink` (same arguments) when neither axis of ``size`` grows, else
+    OpenCV's bilinear resampling: a frame of wide pixels stretched to square
+    ones grows along its width (512 x 512 shown 16:9 becomes 640 x 360)."""
     w, h = int(size[0]), int(size[1])
     H, W = src.shape[:2]
     if w <= W and h <= H:

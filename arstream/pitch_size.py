@@ -196,9 +196,11 @@ def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
     return px
 
 
-def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None, systematic_px=1.0):
-    """The joint least squares over ``views`` (a list of indices into ``views``):
-    returns (x, cameras, rms, matches). ``free``: (length free, width free)."""
+def _fit(views, line_index, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None, systematic_px=1.0):
+    """The joint least squares over the views ``indices`` (into ``views`` and
+    their ``line_index``): returns (parameters, cameras, inlier RMS (px),
+    (centre, length, width), [sd of length, sd of width] (least squares with the
+    systematic term; inf where not free)). ``free``: (length free, width free)."""
     nv = len(indices)
     R0 = [views[i].camera.R for i in indices]
     f0 = [np.log(views[i].camera.focal) for i in indices]
@@ -243,7 +245,7 @@ def _fit(views, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, s
             idx = np.flatnonzero(inside)
             if len(idx) > max_points:
                 idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(int)]
-            d, q = LineIndex(v.points).nearest(px[idx], radius)
+            d, q = line_index[i].nearest(px[idx], radius)
             ok = np.isfinite(d)
             idx, q = idx[ok], q[ok]
             X = P[idx]
@@ -351,12 +353,13 @@ def estimate_pitch_size(
     L0, W0 = prior.length, prior.width
     C0 = np.median([v.camera.center for v in views], axis=0) if centre is None else np.asarray(centre, np.float64)
     all_ = list(range(len(views)))
+    line_index = [LineIndex(v.points) for v in views]  # (each view's, for every fit)
     free = [True, True]
     sd = [None, None]
     for _ in range(3):  # free both; fix what the views leave open; refit
         if not any(free):
             break
-        x, cams, rms, (C, L, W), ls_sd = _fit(views, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points, systematic_px=systematic_px)
+        x, cams, rms, (C, L, W), ls_sd = _fit(views, line_index, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points, systematic_px=systematic_px)
         ns = len(x) - 4 * len(views)
         # the jackknife: each view left out in turn, started from the full fit
         est = []
@@ -364,7 +367,7 @@ def estimate_pitch_size(
             keep = [i for i in all_ if i != k]
             seed = np.concatenate([x[:ns], np.delete(x[ns:].reshape(-1, 4), k, axis=0).ravel()])
             try:
-                _, _, _, (_, Lk, Wk), _ = _fit(views, keep, model, dL0, dW0, L0, W0, C0, free, radii[-1:], max_points, seed_x=seed)
+                _, _, _, (_, Lk, Wk), _ = _fit(views, line_index, keep, model, dL0, dW0, L0, W0, C0, free, radii[-1:], max_points, seed_x=seed)
             except ValueError:
                 continue
             est.append((Lk, Wk))

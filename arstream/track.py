@@ -636,11 +636,10 @@ class Tracker:
             size = estimate_pitch_size(views, self.pitch, centre=self.centre)
         except ValueError:
             return
-        if size.length_sd is None and size.width_sd is None:
-            self.pitch_size = size
-            return
         self.pitch_size = size
-        if all(done for done in size.constrained):
+        if not any(size.constrained):
+            return
+        if all(size.constrained):
             self._pitch_views = None  # both fixed: once per clip
         dl = abs(size.length - self.pitch.length)
         dw = abs(size.width - self.pitch.width)

@@ -649,22 +649,21 @@ def homographies_from_parallel_lines(lines, values, transversal, value: float, p
     r_par /= np.linalg.norm(r_par)
     r_tr /= np.linalg.norm(r_tr)
     # plane X direction is the parallel lines' direction when they are Y = const
+    # points (X, Y) on the transversal: depth_i * K^-1 a_i - t = rx X_i + ry Y_i
+    P = np.column_stack([np.full(3, value), vals]) if axis == 1 else np.column_stack([vals, np.full(3, value)])
+    rays = (Ki @ np.column_stack([A, np.ones(3)]).T).T
+    G = np.zeros((9, 6))
+    for i in range(3):
+        G[3 * i : 3 * i + 3, i] = rays[i]
+        G[3 * i : 3 * i + 3, 3:] = -np.eye(3)
+    G_pinv = np.linalg.pinv(G)
     out = []
     for s1 in (1.0, -1.0):
         for s2 in (1.0, -1.0):
             rx, ry = (s1 * r_par, s2 * r_tr) if axis == 1 else (s2 * r_tr, s1 * r_par)
             U, _, Vt = np.linalg.svd(np.column_stack([rx, ry]), full_matrices=False)
             rx, ry = (U @ Vt).T
-            # points (X, Y) on the transversal: depth_i * K^-1 a_i - t = rx X_i + ry Y_i
-            P = np.column_stack([np.full(3, value), vals]) if axis == 1 else np.column_stack([vals, np.full(3, value)])
-            rays = (Ki @ np.column_stack([A, np.ones(3)]).T).T
-            G = np.zeros((9, 6))
-            rhs = np.zeros(9)
-            for i in range(3):
-                G[3 * i : 3 * i + 3, i] = rays[i]
-                G[3 * i : 3 * i + 3, 3:] = -np.eye(3)
-                rhs[3 * i : 3 * i + 3] = rx * P[i, 0] + ry * P[i, 1]
-            sol = np.linalg.lstsq(G, rhs, rcond=None)[0]
+            sol = G_pinv @ (np.outer(P[:, 0], rx) + np.outer(P[:, 1], ry)).ravel()
             if not np.all(sol[:3] > 0):
                 continue
             H = K @ np.column_stack([rx, ry, sol[3:]])

@@ -194,23 +194,14 @@ def test_degenerate_inputs(call, message):
 
 
 # --- a calibrated camera from three parallel lines and one across them ---------
-def _looking_at(centre, target, f, size=(1280, 720)):
-    from geometry.camera import Camera, intrinsic_matrix
-
-    c, z = np.asarray(centre, float), np.asarray(target, float) - np.asarray(centre, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    R = np.array([x, np.cross(z, x), z])
-    return Camera(K=intrinsic_matrix(f, (size[0] - 1) / 2, (size[1] - 1) / 2), R=R, t=-R @ c)
-
-
 @pytest.mark.parametrize("axis", [0, 1])
 def test_homographies_from_parallel_lines_recover_the_camera(axis):
     from geometry.camera import homographies_from_parallel_lines
     from geometry.lines import line_through
 
-    cam = _looking_at((30.0, -60.0, 15.0), (40.0, 5.0, 0.0), 1500.0)
+    from cameras import looking_at
+
+    cam = looking_at((30.0, -60.0, 15.0), (40.0, 5.0, 0.0), 1500.0)
 
     def image_line(p, q):
         a, b = cam.project(np.array([[*p, 0.0], [*q, 0.0]]))

@@ -10,20 +10,10 @@ import pytest
 
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size, size_derivatives
 from arstream.solve import ModelSamples
-from geometry.camera import Camera, intrinsic_matrix
+from cameras import looking_at
 from geometry.pitch import PitchModel
 
 SIZE = (1280, 720)
-
-
-def _looking_at(centre, target, f) -> Camera:
-    """A level camera (no roll) at ``centre`` (3,) looking at ``target`` (3,), focal ``f`` px."""
-    c, z = np.asarray(centre, float), np.asarray(target, float) - np.asarray(centre, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    R = np.array([x, np.cross(z, x), z])
-    return Camera(K=intrinsic_matrix(f, (SIZE[0] - 1) / 2, (SIZE[1] - 1) / 2), R=R, t=-R @ c)
 
 
 def _views(pitch: PitchModel, targets, centre=(0.0, -55.0, 16.0), f=1400.0) -> list[PitchView]:
@@ -32,7 +22,7 @@ def _views(pitch: PitchModel, targets, centre=(0.0, -55.0, 16.0), f=1400.0) -> l
     X = np.column_stack([X, np.zeros(len(X))])
     out = []
     for t in targets:
-        cam = _looking_at(centre, (*t, 0.0), f)
+        cam = looking_at(centre, (*t, 0.0), f, SIZE)
         px = cam.project(X)
         ok = np.isfinite(px).all(axis=1) & (px[:, 0] >= 0) & (px[:, 0] <= SIZE[0] - 1) & (px[:, 1] >= 0) & (px[:, 1] <= SIZE[1] - 1)
         out.append(PitchView(cam, px[ok], SIZE))
