@@ -23,14 +23,14 @@ import numpy as np
 
 from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
-from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera, solve_from_circle
+from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible
 from arstream.support import backed_support, backs, line_support, marking_points, white_mask
 from geometry.camera import Camera
-from geometry.conics import intersect_line_conic
+from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "register_frame"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "circle_view_cameras", "register_frame"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -159,31 +159,36 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=()) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
-    the paint grown by about 2.5 px at 1280 wide) are refined against the
+    the paint grown by about 2.5 px at 1280 wide), and with the detector's
+    ellipses (``circles``, DetectedEllipse) those of a centre-circle view
+    (:func:`circle_view_cameras`), are refined against the
     paint pixels, with one radial coefficient when the view has enough
     markings; the refined camera with the highest line support
     on white paint (:func:`arstream.support.line_support`) wins, among those
-    still plausible (:func:`arstream.solve_lines.plausible`). Returns (refinement, its
-    support), or (None, None) when no hypothesis was found.
+    still plausible (:func:`arstream.solve_lines.plausible`). ``lines``: the
+    detector's straight lines (DetectedLine), tried as the halfway line
+    before the paint's. Returns (refinement, its support), or (None, None)
+    when no hypothesis was found.
     """
     W, H = size
     r = max(2, int(round(2.5 * W / 1280)))
     near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
-    lines = view.lines[:10]
-    if len(lines) < 4:
+    found = view.lines[:10]
+    hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
+    cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines)
+    if not cands:
         return None, None
-    hy = cameras_from_line_pairs([dl.line for dl in lines], [dl.endpoints for dl in lines], size, principal_point, near, pitch, keep=keep)
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
     best, best_s = None, -1.0
-    for cam in hy.cameras:
+    for cam in cands:
         try:
             rf = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
-            if estimate_k1 and rf.n_visible >= 150:
+            if estimate_k1 and rf.n_visible >= 150 and k1_observable(rf.camera.focal, size):
                 rk = refine_camera(rf.camera, view.index, size, model, estimate_k1=True, radii=(4.0, 2.5))
                 sk = line_support(rk.camera, view.bright, points).share or 0.0
             else:
@@ -198,6 +203,64 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
         if s0 > best_s:
             best, best_s = rf, s0
     return (best, best_s) if best is not None else (None, None)
+
+
+def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, circles=(), lines=(), keep: int = 2, max_pairs: int = 4, focals_per_width=np.geomspace(0.4, 10.0, 18)) -> list[Camera]:
+    """Hypotheses of a centre-circle view whose ellipse does not fix the focal
+    length (a short arc, or the circle nearly edge-on from a low camera far
+    away: the closed form's f is then tens of per cent off).
+
+    For each ellipse (the first two of ``circles``) and each straight line
+    through it that reaches beyond it (a chord of the arc itself does not:
+    the detector's ``lines`` first, then the paint's), the cameras along the
+    circle (:func:`arstream.solve.cameras_along_circle`, at ``focals_per_width``
+    times the width) all lay the circle and the halfway line on their
+    pixels; what tells them apart is the rest of the pitch (the far
+    touchline, a penalty area). Of the plausible ones
+    (:func:`arstream.solve_lines.plausible`), the ``keep`` with the most
+    marking points on white paint net of those off it
+    (``2 n_supported - n_inside`` of :func:`arstream.support.line_support`)
+    are returned: a member with a longer lens shows the same circle with
+    less of the pitch around it, so its share on paint can be as high while it
+    explains less of the frame. Returns a list of Camera (empty without an
+    ellipse and a line through it).
+    """
+    W, H = size
+    circles = [c for c in circles if getattr(c, "points", None) is not None and len(c.points) >= 6][:2]
+    if not circles:
+        return []
+    cands = list(lines[:4])
+    for dl in view.lines[:8]:
+        # (the detector's line already, found again in the paint)
+        if not any(abs(dl.line[:2] @ o.line[:2]) > np.cos(np.radians(1.0)) and abs(dl.line @ np.append(o.endpoints.mean(axis=0), 1.0)) < 0.005 * W for o in cands):
+            cands.append(dl)
+    points = marking_points(pitch)
+    radius = pitch["centre_circle"].radius
+    out: list[Camera] = []
+    pairs = 0
+    for ell in circles:
+        for dl in cands:
+            if pairs >= max_pairs:
+                return out
+            try:
+                intersect_line_conic(ell.conic, dl.line)
+            except ValueError:
+                continue
+            if np.max(sampson_distance(dl.endpoints, ell.conic)) < 0.01 * W:
+                continue  # both ends on the ellipse: a chord of the arc
+            pairs += 1
+            try:
+                fam = cameras_along_circle(ell.conic, dl.line, ell.points, dl.points, principal_point, image_width=W, focals=W * np.asarray(focals_per_width), radius=radius)
+            except ValueError:
+                continue
+            scored = []
+            for cam in fam:
+                if plausible(cam.center, cam.focal, W, pitch)[0]:
+                    s = line_support(cam, view.bright, points)
+                    scored.append((2 * s.n_supported - s.n_inside, cam))
+            scored.sort(key=lambda x: -x[0])
+            out.extend(cam for _, cam in scored[:keep])
+    return out
 
 
 def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
@@ -263,7 +326,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         view = paint_view(image, detections)
         sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
         if not backed(sup, spread):
-            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch)
+            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 if r is None or backed(sp, spread_p) or (sp or 0.0) > (sup or 0.0):

@@ -44,10 +44,12 @@ from geometry.pitch import Arc, PitchModel
 __all__ = [
     "CircleSolution",
     "solve_from_circle",
+    "cameras_along_circle",
     "ModelSamples",
     "LineIndex",
     "Refinement",
     "refine_camera",
+    "k1_observable",
 ]
 
 
@@ -248,6 +250,149 @@ def solve_from_circle(
     return sols
 
 
+def cameras_along_circle(
+    E,
+    halfway_line,
+    arc,
+    halfway,
+    principal_point,
+    *,
+    image_width: float,
+    focals,
+    radius: float | None = None,
+    max_points: int = 120,
+    max_rms: float = 2.0,
+) -> list[Camera]:
+    """Cameras of a centre-circle view at given focal lengths, fitted to the
+    circle's and the halfway line's pixels.
+
+    The closed form (:func:`solve_from_circle`) takes its focal length from
+    the ellipse alone. A real view that shows a short arc of the circle, or
+    the circle nearly edge-on from a low camera far away, fits an ellipse
+    whose unseen part (and so whose f) is far off, while the arc itself is
+    well measured. This gives the one-parameter family such a view leaves:
+    at each focal length, the pose whose image of the circle passes through
+    the arc's pixels (Sampson distance to the projected circle ``H^-T C_w
+    H^-1``) and whose halfway line passes through its pixels, by robust
+    least squares (soft-L1, 1.5 px) over rotation and centre, started from
+    the closed form's geometry at that f (the two candidate vanishing lines
+    of ``E`` and ``omega(f)``; the better fit kept), or where that fits badly
+    (far from the ellipse's own f), from the neighbouring focal length's fit
+    moved along its line of sight. The markings out of the
+    circle's reach (a touchline, a penalty area) then tell the family's
+    members apart (:func:`arstream.initialise.initialise_from_paint`).
+
+    Parameters
+    ----------
+    E : (3, 3) conic fitted to the arc, pixels (the starting poses)
+    halfway_line : (3,) image line of the halfway line, pixels
+    arc : (N, 2) pixels on the imaged circle
+    halfway : (M, 2) pixels on the imaged halfway line
+    principal_point : (2,) pixels
+    image_width : float, pixels
+    focals : (F,) focal lengths to fit at, pixels
+    radius : centreline radius of the centre circle (m); default from PitchModel
+    max_points : most pixels of each kind used (evenly taken)
+    max_rms : a fit whose pixels lie further from the circle and the line than
+        this (px, RMS) is no member of the family
+
+    Returns
+    -------
+    list of Camera, one per focal length where a fit was found (in the order
+    of ``focals``; square pixels, the given principal point, no distortion).
+
+    Raises
+    ------
+    ValueError
+        ``E`` is not an ellipse, the halfway line misses it, or fewer than 6
+        arc or 2 halfway pixels are given.
+    """
+    radius = PitchModel()["centre_circle"].radius if radius is None else float(radius)
+    arc = np.asarray(arc, dtype=np.float64).reshape(-1, 2)
+    halfway = np.asarray(halfway, dtype=np.float64).reshape(-1, 2)
+    if len(arc) < 6 or len(halfway) < 2:
+        raise ValueError(f"need at least 6 arc and 2 halfway-line pixels, got {len(arc)} and {len(halfway)}")
+    ellipse_from_conic(E)  # raises for non-ellipses
+    lh = normalize_line(np.asarray(halfway_line, dtype=np.float64))
+    try:
+        ends = intersect_line_conic(E, lh)
+    except ValueError:
+        raise ValueError("the halfway line does not cross the centre-circle ellipse") from None
+    W = float(image_width)
+    pp = np.asarray(principal_point, dtype=np.float64)
+    T = _normaliser(pp, W)
+    Ti = np.linalg.inv(T)
+    En = normalize_conic(Ti.T @ E @ Ti)
+    ln = Ti.T @ lh
+    ln = ln / np.linalg.norm(ln)
+    arc, halfway = arc[:: max(1, len(arc) // max_points)], halfway[:: max(1, len(halfway) // max_points)]
+    A, B = np.column_stack([arc, np.ones(len(arc))]), np.column_stack([halfway, np.ones(len(halfway))])
+    Cw = np.diag([1.0, 1.0, -radius * radius])
+    focals = np.asarray(focals, dtype=np.float64).ravel()
+    fits: list[tuple[Camera, float] | None] = []
+    for f in focals:
+        best = None
+        for lv in _candidate_vanishing_lines(En, f / W):
+            try:
+                start = _camera_from_circle_geometry(En, ln, lv, f / W, T, ends, radius, pp, W).camera
+            except ValueError:
+                continue
+            fit = _fit_circle_view(start, A, B, Cw)
+            if fit is not None and (best is None or fit[1] < best[1]):
+                best = fit
+        fits.append(best)
+    # far from the ellipse's own focal length its geometry starts the fit badly: start
+    # such a focal length from its neighbour's fit instead, dollied (the centre moved
+    # along its ray from the circle's centre by the ratio of the focal lengths)
+    for order in (range(len(focals)), range(len(focals) - 1, -1, -1)):
+        prev = None
+        for j in order:
+            if prev is not None and fits[prev] is not None and fits[prev][1] <= max_rms and (fits[j] is None or fits[j][1] > max_rms):
+                near = fits[prev][0]
+                k = focals[j] / near.focal
+                start = Camera(K=intrinsic_matrix(focals[j], pp[0], pp[1]), R=near.R, t=-near.R @ (near.center * k))
+                fit = _fit_circle_view(start, A, B, Cw)
+                if fit is not None and (fits[j] is None or fit[1] < fits[j][1]):
+                    fits[j] = fit
+            prev = j
+    return [fit[0] for fit in fits if fit is not None and fit[1] <= max_rms]
+
+
+def _fit_circle_view(start: Camera, A: np.ndarray, B: np.ndarray, Cw: np.ndarray) -> tuple[Camera, float] | None:
+    """:func:`cameras_along_circle`'s fit at ``start``'s focal length: rotation
+    (a perturbation of ``start``'s) and centre, so that the projected circle
+    ``Cw`` passes through ``A`` (N, 3) and the halfway line (X = 0) through
+    ``B`` (M, 3), homogeneous pixels. Returns (camera, RMS distance of the
+    pixels, px), or None when the fit leaves the cameras that see the pitch's
+    plane."""
+    K, R0 = start.K, start.R
+    bad = np.full(len(A) + len(B), 1e3)
+
+    def residuals(x):
+        R = cv2.Rodrigues(x[:3])[0] @ R0
+        H = K @ np.column_stack([R[:, 0], R[:, 1], -R @ x[3:6]])
+        try:
+            Hi = np.linalg.inv(H)
+        except np.linalg.LinAlgError:
+            return bad
+        lx = Hi[0]  # the image of X = 0: H^-T (1, 0, 0)
+        Ci = Hi.T @ Cw @ Hi
+        CA = A @ Ci
+        out = np.concatenate([(B @ lx) / np.hypot(lx[0], lx[1]), np.einsum("ij,ij->i", CA, A) / (2.0 * np.hypot(CA[:, 0], CA[:, 1]))])
+        return out if np.all(np.isfinite(out)) else bad
+
+    x0 = np.concatenate([np.zeros(3), start.center])
+    try:
+        sol = scipy.optimize.least_squares(residuals, x0, loss="soft_l1", f_scale=1.5, x_scale=np.array([0.01, 0.01, 0.01, 5.0, 5.0, 2.0]), max_nfev=40, ftol=1e-6, xtol=1e-6)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    R = cv2.Rodrigues(sol.x[:3])[0] @ R0
+    C = sol.x[3:6]
+    if not np.all(np.isfinite(C)) or C[2] <= 0:
+        return None
+    return Camera(K=K, R=R, t=-R @ C), float(np.sqrt(np.mean(sol.fun**2)))
+
+
 def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width) -> CircleSolution:
     Kn_inv = np.diag([1 / phi, 1 / phi, 1.0])
     En_inv = np.linalg.inv(En)
@@ -302,6 +447,20 @@ def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_poi
     cam = Camera(K=K, R=R, t=t)
     o_px = np.linalg.solve(T, o)
     return CircleSolution(camera=cam, f=f, orthogonality=ortho, centre_image=o_px[:2] / o_px[2])
+
+
+def k1_observable(focal: float, size, *, k1: float = 0.1, px: float = 4.0) -> bool:
+    """Whether one radial coefficient as large as ``k1`` (a broadcast zoom's
+    barrel at its wide end) moves the frame's corners by at least ``px`` pixels
+    at this focal length: ``|k1| r^3 f >= px``, r the corner's normalised radius
+    (the half-diagonal over f).
+
+    At a long focal length the frame shows too little of the lens's field:
+    k1 cannot be told from a change of the focal length or of the centre, and a
+    refinement that estimates it fits the noise (and lets the markings slide
+    along their lines). 640 x 360: up to f = 1.7 widths; 1280 x 720: 2.5."""
+    d = 0.5 * float(np.hypot(size[0], size[1]))
+    return abs(k1) * d**3 / float(focal) ** 2 >= px
 
 
 # ---------------------------------------------------------------------------

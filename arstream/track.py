@@ -55,7 +55,7 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
-from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, refine_camera
+from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera
 from arstream.support import backed_support, backs, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
@@ -78,6 +78,8 @@ class TrackerConfig:
     centre_frames: int = 5  # confident free-pose frames before the tripod centre is frozen
     centre_sigma: float = 0.6  # largest centre std (m) of a frame used for the tripod centre
     centre_break: float = 3.0  # metres: a free pose this far from the tripod centre breaks it
+    centre_every: int = 10  # real frames: frames between free-pose checks of the frozen centre ...
+    centre_move: float = 1.0  # ... which moves it when its more certain views say so by more than this (m)
     accel_pan: float = 4.0  # process noise: angular acceleration (rad/s^2) of pan and tilt
     accel_roll: float = 0.05
     accel_logf: float = 2.0  # zoom acceleration (1/s^2 in log f)
@@ -92,6 +94,7 @@ class TrackerConfig:
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
     paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
+    manoeuvre: float = 3.0  # ... but not while the frame's own motion changes pace by more than this (px/frame, analysis frame): a whip pan
     pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
     pitch_spacing: int = 5  # frames between two views for the size estimate
     pitch_support: float = 0.7  # least line support of a view for the size estimate
@@ -247,11 +250,16 @@ class Tracker:
         self.cfg = config or TrackerConfig()
         self.model = ModelSamples.from_pitch(self.pitch, 0.5)
         self.centre: np.ndarray | None = None
-        self._centres: list[np.ndarray] = []
+        self._centres: list[tuple[float, np.ndarray]] = []  # (largest sd, centre) of free-pose measurements
+        self._centre_check_at = -(10**9)  # the frame the frozen centre was last checked on (real frames)
         self._centre_cur: np.ndarray | None = None
         self.k1: float | None = None  # None: unknown yet; 0: no distortion
         self._k1_samples: list[float] = []
         self._prev_thumb: np.ndarray | None = None
+        self._grey_last: np.ndarray | None = None  # real frames: the last frame, grey and halved (its image motion)
+        self._hann: np.ndarray | None = None
+        self._flow: tuple[int, np.ndarray] | None = None  # (frame, its image motion in px) of the last frame measured
+        self._last_cam: tuple[int, Camera] | None = None  # (frame, camera) last output unsmoothed
         self._kf: KalmanFilter | None = None
         self._coast = 0
         self._conf_ref = 1.0  # running level of accepted confidences (the clip's line recall)
@@ -273,7 +281,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -458,44 +466,55 @@ class Tracker:
         pred_cam = None
         meas: Refinement | None = None
         centre = self.centre if self.centre is not None else self._centre_cur
+        before, self._grey_last = (None if cut else self._grey_last), (self._grey(image) if self._paint and image is not None else None)
         swept_prev, self._swept_prev = self._swept_prev, False
+        source = "track"
+        manoeuvre = False
         if kf is not None:
             # over the frames since the filter's last step (a live source drops frames)
             kf.F, kf.Q = self._motion(min(max(index - self._kf_at, 1), 25))
             kf.predict()
             self._kf_at = index
             pred_cam = self._camera_from_state(kf.x, centre)
-            want_k1 = self._want_k1()
+            want_k1 = self._want_k1(pred_cam.focal)
+            flow_cam, manoeuvre = self._moved_by_image(index, pred_cam, before, self._grey_last) if before is not None and self._grey_last is not None else (None, False)
 
             def track_refine(cam: Camera, radii) -> Refinement:
                 return refine_camera(cam, lidx, self.size, self.model, center=self.centre, estimate_k1=want_k1, radii=radii, max_points=400)
 
-            # (in a whip pan that the sweep is following, the wide search only fails)
-            for radii in ((4.0,),) if swept_prev else ((4.0,), (25.0, 10.0, 4.0, 2.5)):
-                # a close prediction needs one short round (a second when it moved the
-                # camera, matches being nearest neighbours); a fast pan a wider search.
-                # A round that moved the camera by more than 2 px had not converged (a
-                # sudden change of pan speed): up to two more at the same radius
-                # before the last, narrower one, which would settle on a partial fit
-                # (unless it found too little to be a measurement: the wide search is next)
-                try:
-                    r = track_refine(pred_cam, radii)
-                    if len(radii) == 1:
-                        moved = step = _image_shift(pred_cam, r.camera, centre, self.size)
-                        for _ in range(2):
-                            if step <= 2.0 or r.confidence < self.cfg.accept_low:
-                                break
-                            r2 = track_refine(r.camera, radii)
-                            step = _image_shift(r.camera, r2.camera, centre, self.size)
-                            r = r2
-                        if moved > 1.0:
-                            r = track_refine(r.camera, (2.5,))
-                except ValueError:
-                    continue
-                if meas is None or r.confidence > meas.confidence:
-                    meas = r
-                # as good as this clip's recent frames: no need to search wider
-                if meas.confidence >= min(0.85, self._conf_ref - 0.05):
+            # the image moved otherwise than the motion model says (real frames: a
+            # whip pan starting or stopping): start from where the image's own
+            # motion puts the camera, and from the prediction only if that fails
+            for start in (flow_cam, pred_cam) if flow_cam is not None else (pred_cam,):
+                # (in a whip pan that the sweep is following, the wide search only fails)
+                for radii in ((4.0,),) if swept_prev else ((4.0,), (25.0, 10.0, 4.0, 2.5)):
+                    # a close prediction needs one short round (a second when it moved the
+                    # camera, matches being nearest neighbours); a fast pan a wider search.
+                    # A round that moved the camera by more than 2 px had not converged (a
+                    # sudden change of pan speed): up to two more at the same radius
+                    # before the last, narrower one, which would settle on a partial fit
+                    # (unless it found too little to be a measurement: the wide search is next)
+                    try:
+                        r = track_refine(start, radii)
+                        if len(radii) == 1:
+                            moved = step = _image_shift(start, r.camera, centre, self.size)
+                            for _ in range(2):
+                                if step <= 2.0 or r.confidence < self.cfg.accept_low:
+                                    break
+                                r2 = track_refine(r.camera, radii)
+                                step = _image_shift(r.camera, r2.camera, centre, self.size)
+                                r = r2
+                            if moved > 1.0:
+                                r = track_refine(r.camera, (2.5,))
+                    except ValueError:
+                        continue
+                    if meas is None or r.confidence > meas.confidence:
+                        meas = r
+                        source = "flow" if start is flow_cam else "track"
+                    # as good as this clip's recent frames: no need to search wider
+                    if meas.confidence >= min(0.85, self._conf_ref - 0.05):
+                        break
+                if meas is not None and meas.confidence >= self.cfg.accept_low:
                     break
             if meas is not None and meas.confidence < self.cfg.accept:
                 # blur or occlusion hides markings (low recall): still a measurement
@@ -509,7 +528,7 @@ class Tracker:
                     meas = None
                 elif image is not None and self.centre is not None:
                     meas = self._pan_by_brightness(meas, image, lidx)
-        source = "track"
+        source = source if meas is not None and kf is not None else "track"
         swept_rates = None  # the filter's rates when a sweep restarts it
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
@@ -530,7 +549,7 @@ class Tracker:
                 if self.centre is not None and np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
                     # is it the same tripod? try the frozen centre
                     try:
-                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1())
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal))
                     except ValueError:
                         rc = None
                     if rc is not None and rc.confidence >= r.confidence - 0.05:
@@ -539,7 +558,7 @@ class Tracker:
                         self.reset(keep_centre=False)  # another camera
                 elif self.centre is not None:
                     try:
-                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1())
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal))
                         if rc.confidence >= r.confidence - 0.05:
                             meas = rc
                     except ValueError:
@@ -551,7 +570,7 @@ class Tracker:
             # lines of the white paint, scored against the frame (costly: not every frame)
             self._paint_at = index
             view = view or self._paint_view(index, image, det)
-            r, sup = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch)
+            r, sup = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
             if r is not None and sup >= self.cfg.paint_accept:
                 meas, source = r, "paint"
                 self.stats["paint_inits"] += 1
@@ -566,10 +585,17 @@ class Tracker:
             self.reset()
             return CameraEstimate.lost(index, pts, reason="no camera")
         self._learn(meas)
+        if self._paint and self.centre is not None and self._kf is not None and source in ("track", "flow") and index - self._centre_check_at >= self.cfg.centre_every:
+            meas = self._check_centre(index, meas, lidx)
         centre = self.centre if self.centre is not None else meas.camera.center
         self._centre_cur = centre
         z = _ptz_vector(meas.camera, centre)
         Rz = self._measurement_noise(meas)
+        if self._paint and manoeuvre:
+            # the operator changing the pan's pace: the paint noise would make the
+            # filter lag it by several frames; the measurement's own noise, this frame
+            Rz = Rz / self.cfg.paint_noise
+            self.stats["manoeuvres"] += 1
         if self._kf is None:
             rate = None
             if swept_rates is not None and self._last_z is not None:
@@ -759,6 +785,62 @@ class Tracker:
                 cam = rf.camera
         return replace(r, camera=cam)
 
+    def _grey(self, image: np.ndarray) -> np.ndarray:
+        """The frame grey and halved (float32), for its image motion."""
+        g = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        return cv2.resize(g, (g.shape[1] // 2, g.shape[0] // 2), interpolation=cv2.INTER_AREA).astype(np.float32)
+
+    def _moved_by_image(self, index: int, pred: Camera, before: np.ndarray, grey: np.ndarray) -> tuple[Camera | None, bool]:
+        """Real frames: the frame's own motion since the last one (phase
+        correlation of the two, grey and halved: :func:`cv2.phaseCorrelate`).
+
+        Returns (camera, manoeuvre). The camera is the prediction with its pan
+        and tilt set so that the picture moved from the last frame's camera as
+        the frame did, when that differs from the prediction by more than 3 px
+        (else None). Manoeuvre: the motion changed pace since the last frame by
+        more than ``TrackerConfig.manoeuvre`` pixels (a whip pan starting or
+        stopping).
+
+        The filter's constant-rate model lags a whip pan's start by several
+        frames, and on real frames (paint noise) by more: a refinement started
+        from the lagging prediction settles on markings beside their paint. The
+        frame's own motion (grass, lines and stands; the players move less than
+        a whip pan) does not lag."""
+        flow_prev, self._flow = self._flow, None
+        if before.shape != grey.shape:
+            return None, False
+        if self._hann is None or self._hann.shape != grey.shape:
+            self._hann = cv2.createHanningWindow(grey.shape[::-1], cv2.CV_32F)
+        (dx, dy), response = cv2.phaseCorrelate(before, grey, self._hann)
+        if response < 0.05:
+            return None, False
+        moved = np.array([dx, dy]) * (self.size[0] / grey.shape[1])
+        self._flow = (index, moved)
+        manoeuvre = flow_prev is not None and flow_prev[0] == index - 1 and float(np.hypot(*(moved - flow_prev[1]))) > self.cfg.manoeuvre
+        if self._last_cam is None or self._last_cam[0] != index - 1 or self.centre is None:
+            return None, manoeuvre
+        c = np.array([(self.size[0] - 1) / 2, (self.size[1] - 1) / 2])
+        X = self._last_cam[1].backproject_to_pitch(c[None])
+        if not np.all(np.isfinite(X)):
+            return None, manoeuvre
+        X3 = np.column_stack([X, np.zeros(1)])
+        p0 = pred.project(X3)[0]
+        miss = (c + moved) - p0  # where the frame's motion puts the point, less where the prediction does
+        if not np.all(np.isfinite(miss)) or np.hypot(*miss) <= 3.0:
+            return None, manoeuvre
+        ptz = PTZ(*ptr_from_rotation(pred.R), f=pred.focal)
+        # pan and tilt that move the point by ``miss`` (linearised at the prediction)
+        J = np.empty((2, 2))
+        e = 1e-4
+        for k, (dp, dt) in enumerate(((e, 0.0), (0.0, e))):
+            cam = camera_from_ptz(self.centre, PTZ(ptz.pan + dp, ptz.tilt + dt, ptz.roll, ptz.f), self.pp, dist=pred.dist)
+            J[:, k] = (cam.project(X3)[0] - p0) / e
+        try:
+            dpt = np.linalg.solve(J, miss)
+        except np.linalg.LinAlgError:
+            return None, manoeuvre
+        return camera_from_ptz(self.centre, PTZ(ptz.pan + dpt[0], ptz.tilt + dpt[1], ptz.roll, ptz.f), self.pp, dist=pred.dist), manoeuvre
+
     def _estimate(self, index, pts, status, cam, conf, centre, filtered: bool = True, **info) -> CameraEstimate:
         if self._image is not None and cam is not None:
             # never draw with a wrong camera: the frame's paint must back it (docs/evaluate.md)
@@ -774,6 +856,8 @@ class Tracker:
                     self.reset(keep_centre=False)
                 return _unsupported(index, pts, sup, spread)
         info["centre"] = np.array(centre, dtype=np.float64)
+        if cam is not None:
+            self._last_cam = (index, cam)
         if self.lag and self._kf is not None and filtered:
             kf = self._kf
             info["kf"] = (kf.x.copy(), kf.P.copy(), kf.F.copy(), kf.Q.copy(), getattr(self, "_kf_id", 0))
@@ -834,8 +918,11 @@ class Tracker:
         self.stats["lost"] += 1
         return _unsupported(est.frame, est.pts, sup, spread)
 
-    def _want_k1(self) -> bool:
-        return self.k1 is None or self.k1 != 0.0
+    def _want_k1(self, focal: float) -> bool:
+        """Whether a refinement at this focal length estimates k1: not once it was
+        found to be 0, nor on real frames where k1 is not observable
+        (:func:`arstream.solve.k1_observable`: a refinement there fits noise)."""
+        return (self.k1 is None or self.k1 != 0.0) and (not self._paint or k1_observable(focal, self.size))
 
     def _learn(self, r: Refinement) -> None:
         """Update the tripod centre and the lens distortion from a confident measurement."""
@@ -844,9 +931,9 @@ class Tracker:
             ci = [names.index(n) for n in ("cx", "cy", "cz")]
             sd = np.sqrt(np.maximum(np.diag(r.covariance)[ci], 0))
             if np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma:
-                self._centres.append(r.camera.center)
+                self._centres.append((float(sd.max()), r.camera.center))
                 if len(self._centres) >= self.cfg.centre_frames:
-                    self.centre = np.median(np.array(self._centres), axis=0)
+                    self.centre = self._best_centre()
                     if self._paint and self._kf is not None:
                         # real frames: keep the filter's rates (a pan goes on); its angles
                         # were about each frame's own centre: widen them, not restart
@@ -865,3 +952,60 @@ class Tracker:
                     self._k1_f = r.camera.focal
 
     _k1_f: float | None = None
+
+    def _best_centre(self) -> np.ndarray:
+        """The tripod centre: the median of the more certain half (at least
+        ``centre_frames``) of the free-pose centres so far."""
+        best = sorted(self._centres, key=lambda e: e[0])[: max(self.cfg.centre_frames, len(self._centres) // 2)]
+        return np.median(np.array([c for _, c in best]), axis=0)
+
+    def _check_centre(self, index: int, meas: Refinement, lidx: LineIndex) -> Refinement:
+        """Real frames: check the frozen tripod centre against a free-pose
+        refinement of this frame's measurement, every ``centre_every`` frames.
+
+        The centre is frozen from the clip's first confident views. A view of
+        the centre circle from far away fixes it poorly along the line of sight
+        (its focal length and distance trade), and a wrong centre makes every
+        later frame bend its focal length and k1 to fit. A later view with a
+        smaller uncertainty (a penalty area's lines at several depths) joins
+        the candidates; when the median of the most certain ones moves by more
+        than ``centre_move`` metres, the tracker goes on about it: the
+        measurement refined about the new centre, the filter's angles set to
+        it (its rates kept, its angle variances widened). Returns the
+        measurement to use."""
+        self._centre_check_at = index
+        names_free = ("cx", "cy", "cz")
+        try:
+            # (several rounds: along the line of sight the fit is flat, and a round or
+            # two from the frozen centre stop short of the view's own)
+            rf = refine_camera(meas.camera, lidx, self.size, self.model, center=None, estimate_k1=self._want_k1(meas.camera.focal), radii=(4.0, 2.5, 2.5, 2.5, 2.5), max_points=400)
+        except ValueError:
+            return meas
+        if rf.confidence < 0.7 or not all(n in rf.params for n in names_free):
+            return meas
+        ci = [list(rf.params).index(n) for n in names_free]
+        sd = np.sqrt(np.maximum(np.diag(rf.covariance)[ci], 0))
+        if not (np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma):
+            return meas
+        self._centres.append((float(sd.max()), rf.camera.center))
+        if len(self._centres) < self.cfg.centre_frames:
+            return meas
+        new = self._best_centre()
+        if np.linalg.norm(new - self.centre) <= self.cfg.centre_move:
+            return meas
+        try:
+            rc = refine_camera(rf.camera, lidx, self.size, self.model, center=new, estimate_k1=self._want_k1(rf.camera.focal), radii=(4.0, 2.5), max_points=400)
+        except ValueError:
+            return meas
+        if rc.confidence < meas.confidence - 0.05:
+            return meas
+        self.centre = new
+        self.stats["centre_moves"] += 1
+        kf = self._kf
+        z = _ptz_vector(rc.camera, new)
+        y = z - kf.x[0::2, 0]
+        y[0] = _wrap(y[0])
+        kf.x[0::2, 0] += y
+        kf.P[0::2, 0::2] += np.diag([1e-4, 1e-4, 1e-4, 1e-3])
+        self._kf_id = index  # (the smoother must not mix angles about two centres)
+        return rc

@@ -22,6 +22,7 @@ import pytest
 from arstream.evaluate import frame_error
 from arstream.evaluate_video import evaluate_video
 from arstream.pipeline import process
+from arstream.support import jitter_proxy
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
@@ -69,15 +70,21 @@ def test_artificial_turf_with_its_pitch_size(tmp_path):
 def test_israel_league_wide(tmp_path):
     s, score, dist = _run(tmp_path, "israel_league_wide")
     assert s.frames == 404
-    # target 95 %: not met (the first 88 frames, a centre-circle view, get no
-    # camera: 78.2 % on 2026-11-27); held to today's level
-    assert score.coverage >= 0.75, score
+    # (78.2 % before the centre-circle view of its first 88 frames got cameras
+    # from the circle's family, 2026-11-28: 99.8 %)
+    assert score.coverage >= 0.95, score
     assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
     assert score.drawn_below_0_5 == 0, score
     assert len(dist) == 13 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
-    # target 1 px: not met (1.10 px; the steps where tracking starts); held to
-    # today's level
-    assert score.jitter_1280 <= 1.5, score
+    # target 1 px: not met, held to today's level. Frames 76-86 are a whip pan
+    # whose own image motion changes by up to 28 px a frame (phase correlation
+    # of consecutive frames): the proxy of the true cameras is about 2.5 px over
+    # the clip (2.44 px today). After it (frames 88-403, tracked before too):
+    # 1.10 px on 2026-11-27
+    assert score.jitter_1280 <= 3.0, score
+    records = [json.loads(line) for line in (tmp_path / "israel_league_wide.jsonl").read_text().splitlines()]
+    cams = [None if r.get("K") is None else Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ())) for r in records[88:]]
+    assert jitter_proxy(cams, (1280, 720)).rms <= 1.5
 
 
 def test_premier_league_sequence_registered_frame_by_frame():
