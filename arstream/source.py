@@ -43,6 +43,8 @@ import av
 import cv2
 import numpy as np
 
+from av.video.reformatter import VideoReformatter
+
 from arstream.errors import InputError, SourceLost
 
 __all__ = ["Frame", "VideoSource", "ReconnectingSource", "SourceLost", "open_live", "probe", "i420_planes", "reconnect_wait", "DEFAULT_TIMEOUT", "DEFAULT_RECONNECT"]
@@ -214,6 +216,7 @@ class VideoSource:
 
     def __init__(self, path, *, threads: bool = True, options: dict | None = None, format: str | None = None, open_timeout: float | None = 10.0, read_timeout: float | None = None):
         self.path = os.fspath(path)
+        self._reformatter = VideoReformatter()  # frames of other pixel formats -> I420 (to_i420)
         is_url = _is_url(self.path)
         if not is_url and format is None and not os.path.exists(self.path):
             raise InputError(f"input not found: {self.path}")
@@ -383,9 +386,23 @@ class VideoSource:
             w, h = self.width, self.height
         if w % 2 == 0 and h % 2 == 0:
             if vf.format.name != "yuv420p":
-                vf = vf.reformat(format="yuv420p")
+                vf = to_i420(vf, self._reformatter)
             return Frame(index, t, yuv=vf.to_ndarray(), ts=ts, width=w, height=h, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
         return Frame(index, t, vf.to_ndarray(format="bgr24"), ts=ts, decode_ms=(time.perf_counter() - t0) * 1e3, picture_type=kind)
+
+
+def to_i420(vf: av.VideoFrame, reformatter: VideoReformatter) -> av.VideoFrame:
+    """A decoded frame of another pixel format (JPEG's full-range yuvj420p, PNG's
+    rgb24, ...) as limited-range yuv420p, the planes the pipeline reads as
+    BT.601 video levels (16-235, :data:`cv2.COLOR_YUV2BGR_I420`).
+
+    The range is set explicitly: PyAV's reformatter leaves it unspecified by
+    default, and swscale then copies full-range levels into the limited-range
+    planes, which the pipeline stretches by 255/219 (the Premier League JPEG
+    frames came out 1.15 x - 17 levels in grey, faint lines brighter against
+    their box mean by that factor). ``reformatter``: the source's own (it keeps
+    its scaler between frames; not shared across threads)."""
+    return reformatter.reformat(vf, format="yuv420p", dst_color_range="MPEG")
 
 
 #: Seconds without data after which a network source counts as stalled, and the

@@ -47,6 +47,28 @@ def test_a_folder_of_frames_is_read_in_name_order(frames_dir):
         assert int(np.argmin(d)) == k, d
 
 
+@pytest.mark.parametrize("ext, params", [(".png", []), (".jpg", [cv2.IMWRITE_JPEG_QUALITY, 95])])
+def test_frames_of_other_pixel_formats_keep_their_levels(tmp_path, ext, params):
+    # PNG decodes as rgb24, JPEG as full-range yuvj420p: both reach the pipeline
+    # as limited-range I420 planes, read back as BGR at the file's own levels.
+    # (Before the range was set explicitly, swscale copied full-range levels
+    # into them: grey came out 1.15 x - 17, faint lines 15 % brighter against
+    # the grass than in the file.)
+    rng = np.random.default_rng(4)
+    img = np.clip(np.full((72, 128, 3), (40, 120, 50), np.float64) + rng.normal(0, 20, (72, 128, 3)), 0, 255).astype(np.uint8)
+    img = cv2.GaussianBlur(img, (5, 5), 0)  # (smooth colour: 4:2:0 chroma keeps it)
+    img[30:34, :] = (230, 235, 235)  # a white line
+    for k in range(2):
+        cv2.imwrite(str(tmp_path / f"f_{k}{ext}"), img, params)
+    ref = cv2.imread(str(tmp_path / f"f_0{ext}")).astype(np.float64)
+    with VideoSource(tmp_path) as src:
+        got = next(iter(src)).image.astype(np.float64)
+    grey = lambda a: a @ [0.114, 0.587, 0.299]  # noqa: E731
+    gain, offset = np.polyfit(grey(ref).ravel(), grey(got).ravel(), 1)
+    assert abs(gain - 1) < 0.02 and abs(offset) < 2.0, (gain, offset)
+    assert np.abs(got - ref).mean() < 2.5  # (rounding, 4:2:0 chroma, the decoders' upsampling)
+
+
 def test_process_tracks_a_folder_of_frames(frames_dir, tmp_path):
     from arstream.evaluate import score_files
 
