@@ -519,7 +519,7 @@ class Tracker:
             if meas is not None and meas.confidence < self.cfg.accept:
                 # blur or occlusion hides markings (low recall): still a measurement
                 # when what was detected lies on the projected markings (precision)
-                if self._paint and image is not None and meas.confidence >= min(self.cfg.accept_low, self._conf_ref - 0.1) and backs(*self._support(index, meas.camera, image), self.cfg.min_support):
+                if self._paint and image is not None and meas.confidence >= self._complete(self.cfg.accept_low) and backs(*self._support(index, meas.camera, image), self.cfg.min_support):
                     # real frames: the paint pixels' recall is lower than a clean
                     # picture's, and much of the paint is no marking (boards, shirts):
                     # the frame's white paint backs the camera, as the output test
@@ -931,7 +931,7 @@ class Tracker:
     def _learn(self, r: Refinement) -> None:
         """Update the tripod centre and the lens distortion from a confident measurement."""
         names = list(r.params)
-        if self.centre is None and "cx" in names and r.confidence >= 0.7:
+        if self.centre is None and "cx" in names and r.confidence >= self._complete(0.7):
             ci = [names.index(n) for n in ("cx", "cy", "cz")]
             sd = np.sqrt(np.maximum(np.diag(r.covariance)[ci], 0))
             if np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma:
@@ -956,6 +956,15 @@ class Tracker:
                     self._k1_f = r.camera.focal
 
     _k1_f: float | None = None
+
+    def _complete(self, level: float) -> float:
+        """The least confidence (share of the markings in view near a line pixel)
+        of a measurement taken as complete: ``level``, or on real frames as
+        complete as this clip's accepted measurements are (their running level
+        less 0.1), when that is lower: a frame's paint puts 0.54 of the
+        markings in view near a paint pixel on the shared Premier League
+        frames, 0.7 on israel_league_wide."""
+        return min(level, self._conf_ref - 0.1) if self._paint else level
 
     def _best_centre(self) -> np.ndarray:
         """The tripod centre: the median of the more certain half (at least
@@ -985,7 +994,7 @@ class Tracker:
             rf = refine_camera(meas.camera, lidx, self.size, self.model, center=None, estimate_k1=self._want_k1(meas.camera.focal), radii=(4.0, 2.5, 2.5, 2.5, 2.5), max_points=400)
         except ValueError:
             return meas
-        if rf.confidence < 0.7 or not all(n in rf.params for n in names_free):
+        if rf.confidence < self._complete(0.7) or not all(n in rf.params for n in names_free):
             return meas
         ci = [list(rf.params).index(n) for n in names_free]
         sd = np.sqrt(np.maximum(np.diag(rf.covariance)[ci], 0))
