@@ -203,6 +203,24 @@ def test_analysis_resolution_maps_cameras_exactly():
     assert Analysis(640, 360, 960).full and Analysis(640, 360, None).full
 
 
+@pytest.mark.parametrize(
+    "size, aspect, reach",
+    [
+        ((1280, 720), 1.0, 1),  # 2 px of the frame: 1 analysis px
+        ((1920, 1080), 1.0, 1),  # 0.67: at least one
+        ((854, 480), 1.0, 1),  # 1.5: the tie to the narrower
+        ((720, 576), 64 / 45, 2),  # an anamorphic SD frame: 1.78
+        ((512, 512), 16 / 9, 2),  # the Premier League frames: 2.5
+        ((640, 360), 1.0, 2),  # full resolution
+    ],
+)
+def test_the_trackers_line_support_reach_is_the_frames_2_px(size, aspect, reach):
+    from arstream.pipeline.stages import TrackStage
+
+    an = Analysis(*size, 640, pixel_aspect=aspect)
+    assert TrackStage(*size, analysis=an).tracker.support_reach == reach
+
+
 def test_process_at_analysis_resolution(tmp_path):
     """The committed 720p sample solved on 640x360 frames: cameras mapped back to 720p."""
     truth = read_jsonl(os.path.join(ROOT, "samples", "wide", "truth.jsonl"))[:12]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import collections
 import importlib
 import importlib.util
+import math
 import os
 from typing import Callable, Iterable
 
@@ -228,7 +229,11 @@ class TrackStage(Stage):
         self.analysis = analysis or Analysis(width, height)
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
-            reach = max(1, int(round(2.0 / min(self.analysis.sx, self.analysis.sy))))  # the line-support test's 2 px of the frame
+            # the line-support test's 2 px of the frame: the nearest whole number
+            # of analysis pixels, a tie to the narrower (854 x 480 -> 640: 1.5
+            # analysis px; 2 would judge by 2.7 px of the frame, and drew frames
+            # the frame's own test puts below 0.5)
+            reach = max(1, math.ceil(2.0 / min(self.analysis.sx, self.analysis.sy) - 0.5))
             auto = isinstance(pitch, str) and pitch == "auto"
             tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach, pitch=None if auto else pitch, estimate_pitch=auto) if cls is not None else None
         self.tracker = tracker
