@@ -89,7 +89,7 @@ class TrackerConfig:
     sweep_explained: float = 0.85  # ... and least share of its detected line pixels explained
     sweep_peak: float = 1.2  # its support over the best support half the range away
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
-    paint_every: int = 8  # while lost, the paint initialiser (real frames) runs at most every this many frames
+    paint_every: int = 4  # while lost, the paint initialiser (real frames) runs at most every this many frames
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
