@@ -217,7 +217,7 @@ class LineHypotheses:
     n_plausible: int
 
 
-def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_point=None, width: float | None = None) -> tuple[list[int], list[int]]:
+def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_point=None, width: float | None = None, splits: int = 1) -> list[tuple[list[int], list[int]]]:
     """Split lines (N, 3) with segment ends (N, 2, 2) into the pitch's two
     directions: (along the touchlines, across them), by two vanishing points
     (:func:`_vp_candidates`); the flatter family is "along".
@@ -228,14 +228,19 @@ def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_po
     camera: vanishing points ``v1``, ``v2`` of perpendicular directions give
     ``f^2 = -(v1 - p) . (v2 - p)``, which must lie between (0.3 width)^2 and
     (12 width)^2 (a touchline, an arc's piece and a line across can share a
-    point that the longest family's lines do not make a camera with)."""
+    point that the longest family's lines do not make a camera with).
+
+    Returns up to ``splits`` different splits [(along, across)], the most line
+    length first (one where a line is missing can pair a piece of an arc
+    with the wrong family: the next split still has the right one); empty
+    when the lines make none."""
     mids = ends.mean(axis=1)
     in1, in2 = [], []
     if principal_point is not None and width is not None:
         seg_len = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
         p = np.asarray(principal_point, float)
         cands = [(v, inl) for v, inl in _vp_candidates(list(L), mids, tol_deg, ends) if inl]
-        best, in1, in2 = -1.0, [], []
+        found: dict = {}  # (family, family) -> line length
         lo, hi = (0.3 * width) ** 2, (12.0 * width) ** 2
         for i, (va, ia) in enumerate(cands):
             if len(ia) < 2:
@@ -250,9 +255,18 @@ def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_po
                     f2 = -float((va[:2] / va[2] - p) @ (vb[:2] / vb[2] - p))
                     if not lo <= f2 <= hi:
                         continue
-                w = float(seg_len[ia].sum() + seg_len[ib2].sum())
-                if w > best:
-                    best, in1, in2 = w, list(ia), ib2
+                key = (tuple(sorted(ia)), tuple(sorted(ib2)))
+                found[key] = max(found.get(key, 0.0), float(seg_len[ia].sum() + seg_len[ib2].sum()))
+        ranked = sorted(found.items(), key=lambda e: -e[1])
+        if ranked:
+            out = []
+            for (fa, fb), _ in ranked:
+                split = _oriented(L, list(fa), list(fb))
+                if split not in out:
+                    out.append(split)
+                if len(out) >= splits:
+                    break
+            return out
     if len(in1) < 2 or not in2:
         # (no such pair, or no principal point: the point with the most line
         # length, then the one with the most of the rest; a single line left is
@@ -260,17 +274,21 @@ def _line_families(L: np.ndarray, ends: np.ndarray, tol_deg: float, principal_po
         _, in1 = _vp_family(list(L), mids, tol_deg, ends)
         rest = [k for k in range(len(L)) if k not in in1]
         if len(in1) < 2 or not rest:
-            return [], []
+            return []
         _, in2r = _vp_family([L[k] for k in rest], mids[rest], tol_deg, ends[rest])
         in2 = [rest[k] for k in in2r] if len(rest) >= 2 else rest
     if not in2:
-        return [], []
+        return []
+    return [_oriented(L, in1, in2)]
+
+
+def _oriented(L: np.ndarray, in1: list[int], in2: list[int]) -> tuple[list[int], list[int]]:
+    """(along, across) of two families of lines (N, 3): the flatter is "along"."""
 
     def flatness(idx):
         return float(np.median([abs(L[k][1]) for k in idx]))  # |b| ~ 1 for a horizontal line
 
-    a, b = (in1, in2) if flatness(in1) >= flatness(in2) else (in2, in1)
-    return a, b
+    return (in1, in2) if flatness(in1) >= flatness(in2) else (in2, in1)
 
 
 def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchModel) -> np.ndarray:
@@ -310,6 +328,7 @@ def cameras_from_line_pairs(
     spacing: float = 1.0,
     guided: int = 150,
     prescreen: int = 600,
+    splits: int = 2,
 ) -> LineHypotheses:
     """Candidate cameras from straight lines, scored against the frame's paint.
 
@@ -352,190 +371,205 @@ def cameras_from_line_pairs(
     empty = LineHypotheses([], np.zeros(0), 0, 0)
     if len(L) < 4:
         return empty
-    along, across = _line_families(L, E, tol_deg, principal_point, W)
-    three_one = (len(along) >= 3 and len(across) == 1) or (len(across) >= 3 and len(along) == 1)
-    if (len(along) < 2 or len(across) < 2) and not three_one:
-        return empty
-    along, across = along[:max_family], across[:max_family]
-    c = np.array([W / 2, H / 2])
+    def one(along, across) -> LineHypotheses:
+        """The hypotheses of one split of the lines into the two directions."""
+        three_one = (len(along) >= 3 and len(across) == 1) or (len(across) >= 3 and len(along) == 1)
+        if (len(along) < 2 or len(across) < 2) and not three_one:
+            return empty
+        along, across = along[:max_family], across[:max_family]
+        c = np.array([W / 2, H / 2])
 
-    def y_at_centre(k):
-        return -(L[k][0] * c[0] + L[k][2]) / L[k][1] if abs(L[k][1]) > 1e-9 else np.inf
+        def y_at_centre(k):
+            return -(L[k][0] * c[0] + L[k][2]) / L[k][1] if abs(L[k][1]) > 1e-9 else np.inf
 
-    def x_at_centre(k):
-        return -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else np.inf
+        def x_at_centre(k):
+            return -(L[k][1] * c[1] + L[k][2]) / L[k][0] if abs(L[k][0]) > 1e-9 else np.inf
 
-    along = sorted(along, key=lambda k: -y_at_centre(k))  # bottom (near) to top (far)
-    across = sorted(across, key=x_at_centre)  # left to right
-    hl, hw = pitch.length / 2, pitch.width / 2
-    # the model's straight markings of each direction, by their centrelines
-    xs = sorted({round(sg.start[0], 6) for sg in pitch.segments if abs(sg.start[0] - sg.end[0]) < 1e-9})
-    ys = sorted({round(sg.start[1], 6) for sg in pitch.segments if abs(sg.start[1] - sg.end[1]) < 1e-9})
-    m_across = [np.array([1.0, 0.0, -x]) for x in xs]  # X = x
-    m_along = [np.array([0.0, 1.0, -y]) for y in ys]  # Y = y
-    hs = []
-    if three_one:
-        # one line of a direction only (a goal line behind the net, the far side
-        # of the penalty area out of view): three lines of the other direction,
-        # ordered, against three model lines, and the one against every model
-        # line of its direction; the camera's principal point and square pixels
-        # take up the degree of freedom four such lines leave
-        # (:func:`homographies_from_parallel_lines`). (Tried also beside the pairs
-        # when both directions have two or more lines, they registered 3 more
-        # of the 51 Premier League frames, one of them wrong: not done.)
-        for par, rest, axis in ((along, across, 1), (across, along, 0)):
-            if len(par) < 3:
-                continue
-            vals, others = (ys, xs) if axis == 1 else (xs, ys)
-            for ti in combinations(par, 3):
-                for tm in combinations(range(len(vals)), 3):
-                    for one in rest:
-                        for o in others:
-                            hs.extend(homographies_from_parallel_lines(L[list(ti)], [vals[m] for m in tm], L[one], o, principal_point, axis=axis))
-    Hs = np.array(hs).reshape(-1, 3, 3)
-    ok = np.ones(len(Hs), bool)
-    n = len(Hs)
-    if len(along) >= 2 and len(across) >= 2:
-        ia = list(combinations(across, 2))
-        ib = list(combinations(along, 2))
-        ma = list(combinations(range(len(xs)), 2))
-        mb = list(combinations(range(len(ys)), 2))
-        # every (image pair, model pair) of each direction: (K, 4, 3) lines
-        MA, MB = np.array(m_across), np.array(m_along)
-        ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
-        g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
-        n += len(g)
-        src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
-        dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
-        H4, ok4 = homographies_from_lines(src, dst)
-        Hs, ok = np.concatenate([H4, Hs]), np.concatenate([ok4, ok])
-    if not len(Hs):
-        return LineHypotheses([], np.zeros(0), n, 0)
-    poses = decompose_homographies(Hs[ok], principal_point)
-    C, f = poses.centre, poses.focal
-    good = poses.ok & plausible(C, f, W, pitch)
-    idx = np.flatnonzero(good)
-    if not len(idx):
-        return LineHypotheses([], np.zeros(0), n, 0)
-    Hg = Hs[ok][idx]
-    # precision: the model's markings sampled, the share that lands on paint
-    P = np.concatenate([m.sample(spacing) for m in pitch.markings.values()])
-    Ph = np.column_stack([P, np.ones(len(P))])
-    nz = np.asarray(near) > 0
-    sy, sx = nz.shape[0] / H, nz.shape[1] / W
-    # recall: points along the detected segments (the family lines used), the
-    # share that lies within ``tol`` pixels of a marking (distance on the pitch
-    # over the pitch metres one pixel across the line covers there)
-    used = sorted(set(along) | set(across))
-    t = np.linspace(0.0, 1.0, 16)
-    Q = np.concatenate([(1 - t)[:, None] * E[k, 0] + t[:, None] * E[k, 1] for k in used])
-    Qn = np.concatenate([np.tile(L[k][:2], (len(t), 1)) for k in used])
-    Qh = np.column_stack([Q, np.ones(len(Q))])
-    Qh1 = np.column_stack([Q + Qn, np.ones(len(Q))])
-    tree = scipy.spatial.cKDTree(pitch.sample_points(0.25))
-    tol = max(2.0, 2.5 * W / 1280)
+        along = sorted(along, key=lambda k: -y_at_centre(k))  # bottom (near) to top (far)
+        across = sorted(across, key=x_at_centre)  # left to right
+        hl, hw = pitch.length / 2, pitch.width / 2
+        # the model's straight markings of each direction, by their centrelines
+        xs = sorted({round(sg.start[0], 6) for sg in pitch.segments if abs(sg.start[0] - sg.end[0]) < 1e-9})
+        ys = sorted({round(sg.start[1], 6) for sg in pitch.segments if abs(sg.start[1] - sg.end[1]) < 1e-9})
+        m_across = [np.array([1.0, 0.0, -x]) for x in xs]  # X = x
+        m_along = [np.array([0.0, 1.0, -y]) for y in ys]  # Y = y
+        hs = []
+        if three_one:
+            # one line of a direction only (a goal line behind the net, the far side
+            # of the penalty area out of view): three lines of the other direction,
+            # ordered, against three model lines, and the one against every model
+            # line of its direction; the camera's principal point and square pixels
+            # take up the degree of freedom four such lines leave
+            # (:func:`homographies_from_parallel_lines`). (Tried also beside the pairs
+            # when both directions have two or more lines, they registered 3 more
+            # of the 51 Premier League frames, one of them wrong: not done.)
+            for par, rest, axis in ((along, across, 1), (across, along, 0)):
+                if len(par) < 3:
+                    continue
+                vals, others = (ys, xs) if axis == 1 else (xs, ys)
+                for ti in combinations(par, 3):
+                    for tm in combinations(range(len(vals)), 3):
+                        for one in rest:
+                            for o in others:
+                                hs.extend(homographies_from_parallel_lines(L[list(ti)], [vals[m] for m in tm], L[one], o, principal_point, axis=axis))
+        Hs = np.array(hs).reshape(-1, 3, 3)
+        ok = np.ones(len(Hs), bool)
+        n = len(Hs)
+        if len(along) >= 2 and len(across) >= 2:
+            ia = list(combinations(across, 2))
+            ib = list(combinations(along, 2))
+            ma = list(combinations(range(len(xs)), 2))
+            mb = list(combinations(range(len(ys)), 2))
+            # every (image pair, model pair) of each direction: (K, 4, 3) lines
+            MA, MB = np.array(m_across), np.array(m_along)
+            ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
+            g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
+            n += len(g)
+            src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
+            dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
+            H4, ok4 = homographies_from_lines(src, dst)
+            Hs, ok = np.concatenate([H4, Hs]), np.concatenate([ok4, ok])
+        if not len(Hs):
+            return LineHypotheses([], np.zeros(0), n, 0)
+        poses = decompose_homographies(Hs[ok], principal_point)
+        C, f = poses.centre, poses.focal
+        good = poses.ok & plausible(C, f, W, pitch)
+        idx = np.flatnonzero(good)
+        if not len(idx):
+            return LineHypotheses([], np.zeros(0), n, 0)
+        Hg = Hs[ok][idx]
+        # precision: the model's markings sampled, the share that lands on paint
+        P = np.concatenate([m.sample(spacing) for m in pitch.markings.values()])
+        Ph = np.column_stack([P, np.ones(len(P))])
+        nz = np.asarray(near) > 0
+        sy, sx = nz.shape[0] / H, nz.shape[1] / W
+        # recall: points along the detected segments (the family lines used), the
+        # share that lies within ``tol`` pixels of a marking (distance on the pitch
+        # over the pitch metres one pixel across the line covers there)
+        used = sorted(set(along) | set(across))
+        t = np.linspace(0.0, 1.0, 16)
+        Q = np.concatenate([(1 - t)[:, None] * E[k, 0] + t[:, None] * E[k, 1] for k in used])
+        Qn = np.concatenate([np.tile(L[k][:2], (len(t), 1)) for k in used])
+        Qh = np.column_stack([Q, np.ones(len(Q))])
+        Qh1 = np.column_stack([Q + Qn, np.ones(len(Q))])
+        tree = scipy.spatial.cKDTree(pitch.sample_points(0.25))
+        tol = max(2.0, 2.5 * W / 1280)
 
-    def score(Hb: np.ndarray) -> np.ndarray:
-        """precision x recall of homographies (K, 3, 3)"""
-        out = np.empty(len(Hb))
-        for s in range(0, len(Hb), 1024):
-            Hk = Hb[s : s + 1024]
-            X = np.einsum("kij,nj->kni", Hk, Ph)
+        def score(Hb: np.ndarray) -> np.ndarray:
+            """precision x recall of homographies (K, 3, 3)"""
+            out = np.empty(len(Hb))
+            for s in range(0, len(Hb), 1024):
+                Hk = Hb[s : s + 1024]
+                X = np.einsum("kij,nj->kni", Hk, Ph)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    u, v = X[..., 0] / X[..., 2], X[..., 1] / X[..., 2]
+                inside = (X[..., 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+                ui = np.clip(np.where(inside, u * sx, 0), 0, nz.shape[1] - 1).astype(np.int64)
+                vi = np.clip(np.where(inside, v * sy, 0), 0, nz.shape[0] - 1).astype(np.int64)
+                hits = (nz[vi, ui] & inside).sum(axis=1)
+                precision = hits / (inside.sum(axis=1) + 30.0)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    Hi = np.linalg.inv(Hk)
+                    G = np.einsum("kij,nj->kni", Hi, Qh)
+                    G1 = np.einsum("kij,nj->kni", Hi, Qh1)
+                    g, g1 = G[..., :2] / G[..., 2:], G1[..., :2] / G1[..., 2:]
+                    scale = np.linalg.norm(g1 - g, axis=2)
+                fin = np.all(np.isfinite(g), axis=2) & np.isfinite(scale)
+                d = np.full(g.shape[:2], np.inf)
+                d[fin], _ = tree.query(g[fin], distance_upper_bound=5.0)
+                with np.errstate(invalid="ignore"):
+                    recall = np.mean(d / np.where(scale > 0, scale, np.inf) <= tol, axis=1)
+                out[s : s + 1024] = precision * recall
+            return out
+
+        # precision alone first (cheap), on a sparser sampling; the full score for the best
+        scores = np.full(len(Hg), -1.0)
+        pre = np.empty(len(Hg))
+        P2h = Ph[::2]
+        for s in range(0, len(Hg), 2048):
+            X = np.einsum("kij,nj->kni", Hg[s : s + 2048], P2h)
             with np.errstate(divide="ignore", invalid="ignore"):
                 u, v = X[..., 0] / X[..., 2], X[..., 1] / X[..., 2]
             inside = (X[..., 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
             ui = np.clip(np.where(inside, u * sx, 0), 0, nz.shape[1] - 1).astype(np.int64)
             vi = np.clip(np.where(inside, v * sy, 0), 0, nz.shape[0] - 1).astype(np.int64)
-            hits = (nz[vi, ui] & inside).sum(axis=1)
-            precision = hits / (inside.sum(axis=1) + 30.0)
+            pre[s : s + 2048] = (nz[vi, ui] & inside).sum(axis=1) / (inside.sum(axis=1) + 15.0)
+        first = np.argsort(-pre)[:prescreen]
+        scores[first] = score(Hg[first])
+        # guided matching: the best hypotheses take every family line that lies
+        # on a model line of its direction under them, and are solved again from
+        # all those correspondences (more lines, a better homography)
+        top = np.argsort(-scores)[:guided]
+        fam = [(k, m_across) for k in across] + [(k, m_along) for k in along]
+        reach = 0.012 * W
+        Hx, cand = [], []
+        for j in top:
+            Hj = Hg[j]
+            try:
+                Hit = np.linalg.inv(Hj).T  # model line -> image line
+            except np.linalg.LinAlgError:
+                continue
+            src_l, dst_l = [], []
+            for k, models in fam:
+                best_m, best_d = None, reach
+                for mline in models:
+                    li = Hit @ mline
+                    nrm = np.hypot(li[0], li[1])
+                    if nrm < 1e-12:
+                        continue
+                    dd = max(abs(li[:2] @ E[k, 0] + li[2]), abs(li[:2] @ E[k, 1] + li[2])) / nrm
+                    if dd < best_d:
+                        best_m, best_d = mline, dd
+                if best_m is not None:
+                    src_l.append(best_m)
+                    dst_l.append(L[k])
+            if len(src_l) > 4:
+                H2, ok2 = homographies_from_lines(np.array(src_l)[None], np.array(dst_l)[None])
+                if ok2[0]:
+                    Hx.append(H2[0])
+                    cand.append(j)
+        if Hx:
+            Hx = np.array(Hx)
+            p2 = decompose_homographies(Hx, principal_point)
+            C2, f2 = p2.centre, p2.focal
+            ok = p2.ok & plausible(C2, f2, W, pitch)
+            s2 = score(Hx)
+            for i in np.flatnonzero(ok & (s2 > scores[np.array(cand)])):
+                scores[cand[i]] = s2[i]
+                Hg[cand[i]] = Hx[i]
+        # the camera nearest to each of the best homographies on the pitch it shows
+        gx, gy = np.meshgrid(np.arange(-hl - 4, hl + 4.1, 2.0), np.arange(-hw - 4, hw + 4.1, 2.0))
+        grid = np.column_stack([gx.ravel(), gy.ravel()])
+        gh = np.column_stack([grid, np.ones(len(grid))])
+        cams, sc = [], []
+        for j in np.argsort(-scores):
+            X = gh @ Hg[j].T
             with np.errstate(divide="ignore", invalid="ignore"):
-                Hi = np.linalg.inv(Hk)
-                G = np.einsum("kij,nj->kni", Hi, Qh)
-                G1 = np.einsum("kij,nj->kni", Hi, Qh1)
-                g, g1 = G[..., :2] / G[..., 2:], G1[..., :2] / G1[..., 2:]
-                scale = np.linalg.norm(g1 - g, axis=2)
-            fin = np.all(np.isfinite(g), axis=2) & np.isfinite(scale)
-            d = np.full(g.shape[:2], np.inf)
-            d[fin], _ = tree.query(g[fin], distance_upper_bound=5.0)
-            with np.errstate(invalid="ignore"):
-                recall = np.mean(d / np.where(scale > 0, scale, np.inf) <= tol, axis=1)
-            out[s : s + 1024] = precision * recall
-        return out
+                u, v = X[:, 0] / X[:, 2], X[:, 1] / X[:, 2]
+            seen = (X[:, 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+            try:
+                cam = camera_near_homography(Hg[j], principal_point, grid[seen])
+            except ValueError:
+                continue
+            # the same camera from another assignment (a line pair read twice): skip
+            if any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
+                continue
+            cams.append(cam)
+            sc.append(scores[j])
+            if len(cams) >= keep:
+                break
+        return LineHypotheses(cams, np.array(sc), n, int(len(idx)))
 
-    # precision alone first (cheap), on a sparser sampling; the full score for the best
-    scores = np.full(len(Hg), -1.0)
-    pre = np.empty(len(Hg))
-    P2h = Ph[::2]
-    for s in range(0, len(Hg), 2048):
-        X = np.einsum("kij,nj->kni", Hg[s : s + 2048], P2h)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u, v = X[..., 0] / X[..., 2], X[..., 1] / X[..., 2]
-        inside = (X[..., 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
-        ui = np.clip(np.where(inside, u * sx, 0), 0, nz.shape[1] - 1).astype(np.int64)
-        vi = np.clip(np.where(inside, v * sy, 0), 0, nz.shape[0] - 1).astype(np.int64)
-        pre[s : s + 2048] = (nz[vi, ui] & inside).sum(axis=1) / (inside.sum(axis=1) + 15.0)
-    first = np.argsort(-pre)[:prescreen]
-    scores[first] = score(Hg[first])
-    # guided matching: the best hypotheses take every family line that lies
-    # on a model line of its direction under them, and are solved again from
-    # all those correspondences (more lines, a better homography)
-    top = np.argsort(-scores)[:guided]
-    fam = [(k, m_across) for k in across] + [(k, m_along) for k in along]
-    reach = 0.012 * W
-    Hx, cand = [], []
-    for j in top:
-        Hj = Hg[j]
-        try:
-            Hit = np.linalg.inv(Hj).T  # model line -> image line
-        except np.linalg.LinAlgError:
-            continue
-        src_l, dst_l = [], []
-        for k, models in fam:
-            best_m, best_d = None, reach
-            for mline in models:
-                li = Hit @ mline
-                nrm = np.hypot(li[0], li[1])
-                if nrm < 1e-12:
-                    continue
-                dd = max(abs(li[:2] @ E[k, 0] + li[2]), abs(li[:2] @ E[k, 1] + li[2])) / nrm
-                if dd < best_d:
-                    best_m, best_d = mline, dd
-            if best_m is not None:
-                src_l.append(best_m)
-                dst_l.append(L[k])
-        if len(src_l) > 4:
-            H2, ok2 = homographies_from_lines(np.array(src_l)[None], np.array(dst_l)[None])
-            if ok2[0]:
-                Hx.append(H2[0])
-                cand.append(j)
-    if Hx:
-        Hx = np.array(Hx)
-        p2 = decompose_homographies(Hx, principal_point)
-        C2, f2 = p2.centre, p2.focal
-        ok = p2.ok & plausible(C2, f2, W, pitch)
-        s2 = score(Hx)
-        for i in np.flatnonzero(ok & (s2 > scores[np.array(cand)])):
-            scores[cand[i]] = s2[i]
-            Hg[cand[i]] = Hx[i]
-    # the camera nearest to each of the best homographies on the pitch it shows
-    gx, gy = np.meshgrid(np.arange(-hl - 4, hl + 4.1, 2.0), np.arange(-hw - 4, hw + 4.1, 2.0))
-    grid = np.column_stack([gx.ravel(), gy.ravel()])
-    gh = np.column_stack([grid, np.ones(len(grid))])
-    cams, sc = [], []
-    for j in np.argsort(-scores):
-        X = gh @ Hg[j].T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u, v = X[:, 0] / X[:, 2], X[:, 1] / X[:, 2]
-        seen = (X[:, 2] > 0) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
-        try:
-            cam = camera_near_homography(Hg[j], principal_point, grid[seen])
-        except ValueError:
-            continue
-        # the same camera from another assignment (a line pair read twice): skip
-        if any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
-            continue
-        cams.append(cam)
-        sc.append(scores[j])
-        if len(cams) >= keep:
-            break
-    return LineHypotheses(cams, np.array(sc), n, int(len(idx)))
+    out = [one(a, b) for a, b in _line_families(L, E, tol_deg, principal_point, W, splits=splits)]
+    if not out:
+        return empty
+    # the first split's ``keep`` best and each further split's ``keep // 2``, best
+    # first (the refinement against the paint decides between them)
+    cams, sc = list(out[0].cameras), list(out[0].scores)
+    for h in out[1:]:
+        for cam, v in list(zip(h.cameras, h.scores))[: max(1, keep // 2)]:
+            if not any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
+                cams.append(cam)
+                sc.append(v)
+    order = np.argsort(-np.array(sc), kind="stable")
+    return LineHypotheses([cams[k] for k in order], np.array(sc)[order], sum(h.n_tried for h in out), sum(h.n_plausible for h in out))

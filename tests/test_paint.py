@@ -334,7 +334,7 @@ def test_register_a_real_still(item):
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
-@pytest.mark.parametrize("frame", [25, 50])
+@pytest.mark.parametrize("frame", [0, 25, 50])
 def test_register_a_resized_premier_league_frame(frame):
     # stored 512 x 512, shown 16:9: registered on the frame stretched to square
     # pixels, the camera mapped back with K[1][1] / K[0][0] = 16/9
@@ -360,3 +360,27 @@ def test_paint_view_tracks_pixels_without_finding_lines_first():
     v = paint_view(img, detect(img))
     assert v._lines is None and len(v.index) > 100 and v.bright.shape == img.shape[:2]
     assert len(v.lines) >= 4 and v._lines is not None
+
+
+def test_line_families_give_the_next_split_too():
+    # the penalty view's straight markings, and a chord of its arc: the best
+    # split by line length first, then a different one (the chord with the
+    # other family, or a line left out); each family's lines share a point
+    from arstream.solve_lines import _line_families
+
+    cam, img = _penalty_view()
+    H, W = img.shape[:2]
+    seen = _visible_lines(cam, (W, H))
+    arc = PITCH["penalty_arc_left"]
+    pts = cam.project(np.column_stack([arc.sample(0.1), np.zeros(len(arc.sample(0.1)))]))
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    a, b = pts[len(pts) // 4], pts[3 * len(pts) // 4]
+    L = np.array([x[0] for x in seen] + [line_through((*a, 1.0), (*b, 1.0))])
+    E = np.array([x[1] for x in seen] + [np.array([a, b])])
+    one = _line_families(L, E, 2.0, cam.principal_point, W)
+    two = _line_families(L, E, 2.0, cam.principal_point, W, splits=2)
+    assert len(one) == 1 and len(two) == 2 and two[0] == one[0] and two[1] != two[0]
+    across, chord = {k for k, x in enumerate(seen) if x[2]}, len(seen)
+    along, acr = one[0]
+    # the best split puts the straight markings right (the chord may join either)
+    assert set(acr) - {chord} <= across and not (set(along) - {chord}) & across
