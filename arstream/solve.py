@@ -78,6 +78,22 @@ def _normaliser(principal_point, scale: float) -> np.ndarray:
     return np.array([[1 / scale, 0, -cx / scale], [0, 1 / scale, -cy / scale], [0, 0, 1.0]])
 
 
+def _normalised_circle_view(E, halfway_line, principal_point, image_width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The ellipse and the halfway line in coordinates centred on the principal
+    point and scaled by the image width: (T (3, 3) pixels -> normalised, E_n,
+    l_n (unit), the line's two crossings with ``E`` (pixels)). Raises
+    ValueError when the line misses the ellipse."""
+    lh = normalize_line(np.asarray(halfway_line, dtype=np.float64))
+    try:
+        ends = intersect_line_conic(E, lh)
+    except ValueError:
+        raise ValueError("the halfway line does not cross the centre-circle ellipse") from None
+    T = _normaliser(principal_point, image_width)
+    Ti = np.linalg.inv(T)
+    ln = Ti.T @ lh
+    return T, normalize_conic(Ti.T @ E @ Ti), ln / np.linalg.norm(ln), ends
+
+
 def _candidate_vanishing_lines(En: np.ndarray, phi: float) -> list[np.ndarray]:
     """The two real lines through the conjugate pairs of ``E_n ∩ omega_n(phi)``.
 
@@ -160,16 +176,7 @@ def solve_from_circle(
     e = ellipse_from_conic(E)  # raises for non-ellipses
     if e.axes[1] / e.axes[0] < 0.03 or e.axes[1] < 2.0:
         raise ValueError("ellipse too flat: the centre circle is seen edge-on")
-    lh = normalize_line(np.asarray(halfway_line, dtype=np.float64))
-    try:
-        ends = intersect_line_conic(E, lh)
-    except ValueError:
-        raise ValueError("the halfway line does not cross the centre-circle ellipse") from None
-    T = _normaliser(principal_point, image_width)
-    Ti = np.linalg.inv(T)
-    En = normalize_conic(Ti.T @ E @ Ti)
-    ln = Ti.T @ lh
-    ln = ln / np.linalg.norm(ln)
+    T, En, ln, ends = _normalised_circle_view(E, halfway_line, principal_point, image_width)
     En_inv = np.linalg.inv(En)
     phis = np.geomspace(f_range[0], f_range[1], samples)
     # follow the two candidate lines over the grid by continuity
@@ -313,18 +320,9 @@ def cameras_along_circle(
     if len(arc) < 6 or len(halfway) < 2:
         raise ValueError(f"need at least 6 arc and 2 halfway-line pixels, got {len(arc)} and {len(halfway)}")
     ellipse_from_conic(E)  # raises for non-ellipses
-    lh = normalize_line(np.asarray(halfway_line, dtype=np.float64))
-    try:
-        ends = intersect_line_conic(E, lh)
-    except ValueError:
-        raise ValueError("the halfway line does not cross the centre-circle ellipse") from None
     W = float(image_width)
     pp = np.asarray(principal_point, dtype=np.float64)
-    T = _normaliser(pp, W)
-    Ti = np.linalg.inv(T)
-    En = normalize_conic(Ti.T @ E @ Ti)
-    ln = Ti.T @ lh
-    ln = ln / np.linalg.norm(ln)
+    T, En, ln, ends = _normalised_circle_view(E, halfway_line, pp, W)
     arc, halfway = arc[:: max(1, len(arc) // max_points)], halfway[:: max(1, len(halfway) // max_points)]
     A, B = np.column_stack([arc, np.ones(len(arc))]), np.column_stack([halfway, np.ones(len(halfway))])
     Cw = np.diag([1.0, 1.0, -radius * radius])

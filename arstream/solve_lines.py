@@ -291,6 +291,11 @@ def _oriented(L: np.ndarray, in1: list[int], in2: list[int]) -> tuple[list[int],
     return (in1, in2) if flatness(in1) >= flatness(in2) else (in2, in1)
 
 
+def _same_camera(a: Camera, b: Camera) -> bool:
+    """Two hypotheses are one camera: centres within 1 m, focal lengths within 2 %."""
+    return bool(np.linalg.norm(a.center - b.center) < 1.0 and abs(np.log(a.focal / b.focal)) < 0.02)
+
+
 def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchModel) -> np.ndarray:
     """Which cameras could be a main broadcast camera: above the pitch (3-80 m),
     outside the near touchline by 3 m, within 20 m of the goal lines' extent,
@@ -552,7 +557,7 @@ def cameras_from_line_pairs(
             except ValueError:
                 continue
             # the same camera from another assignment (a line pair read twice): skip
-            if any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
+            if any(_same_camera(cam, o) for o in cams):
                 continue
             cams.append(cam)
             sc.append(scores[j])
@@ -568,7 +573,7 @@ def cameras_from_line_pairs(
     cams, sc = list(out[0].cameras), list(out[0].scores)
     for h in out[1:]:
         for cam, v in list(zip(h.cameras, h.scores))[: max(1, keep // 2)]:
-            if not any(np.linalg.norm(cam.center - o.center) < 1.0 and abs(np.log(cam.focal / o.focal)) < 0.02 for o in cams):
+            if not any(_same_camera(cam, o) for o in cams):
                 cams.append(cam)
                 sc.append(v)
     order = np.argsort(-np.array(sc), kind="stable")

@@ -523,15 +523,12 @@ class Tracker:
                     # real frames: the paint pixels' recall is lower than a clean
                     # picture's, and much of the paint is no marking (boards, shirts):
                     # the frame's white paint backs the camera, as the output test
-                    # asks, and it is about as complete as this clip's measurements
-                    # are (the shared Premier League frames' paint puts 0.54 of the
-                    # markings in view near a paint pixel; israel_league_wide's 0.7)
+                    # asks, and it is about as complete as this clip's are (_complete)
                     pass
                 elif meas.confidence < self.cfg.accept_low or explained_share(meas.camera, lidx, self.size, self.model) < self.cfg.min_explained:
                     meas = None
                 elif image is not None and self.centre is not None:
                     meas = self._pan_by_brightness(meas, image, lidx)
-        source = source if meas is not None and kf is not None else "track"
         swept_rates = None  # the filter's rates when a sweep restarts it
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
@@ -930,20 +927,14 @@ class Tracker:
 
     def _learn(self, r: Refinement) -> None:
         """Update the tripod centre and the lens distortion from a confident measurement."""
-        names = list(r.params)
-        if self.centre is None and "cx" in names and r.confidence >= self._complete(0.7):
-            ci = [names.index(n) for n in ("cx", "cy", "cz")]
-            sd = np.sqrt(np.maximum(np.diag(r.covariance)[ci], 0))
-            if np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma:
-                self._centres.append((float(sd.max()), r.camera.center))
-                if len(self._centres) >= self.cfg.centre_frames:
-                    self.centre = self._best_centre()
-                    if self._paint and self._kf is not None:
-                        # real frames: keep the filter's rates (a pan goes on); its angles
-                        # were about each frame's own centre: widen them, not restart
-                        self._kf.P[0::2, 0::2] += np.diag([1e-4, 1e-4, 1e-4, 1e-3])
-                    else:
-                        self._kf = None  # restart the filter about the frozen centre
+        if self.centre is None and self._add_centre(r) and len(self._centres) >= self.cfg.centre_frames:
+            self.centre = self._best_centre()
+            if self._paint and self._kf is not None:
+                # real frames: keep the filter's rates (a pan goes on); its angles
+                # were about each frame's own centre: widen them, not restart
+                self._kf.P[0::2, 0::2] += np.diag([1e-4, 1e-4, 1e-4, 1e-3])
+            else:
+                self._kf = None  # restart the filter about the frozen centre
         if self.k1 != 0.0 and r.camera.dist and r.n_visible >= 250 and r.confidence >= 0.7:
             # k1 scales like 1/f for a zoom lens: keep k1 * f samples
             self._k1_samples.append(r.camera.dist[0] * r.camera.focal)
@@ -966,6 +957,19 @@ class Tracker:
         frames, 0.7 on israel_league_wide."""
         return min(level, self._conf_ref - 0.1) if self._paint else level
 
+    def _add_centre(self, r: Refinement) -> bool:
+        """Keep a free-pose measurement's centre as a tripod-centre candidate, with
+        its largest standard deviation, when it is complete and certain enough
+        (``centre_sigma``); returns whether it was kept."""
+        names = list(r.params)
+        if "cx" not in names or r.confidence < self._complete(0.7):
+            return False
+        sd = np.sqrt(np.maximum(np.diag(r.covariance)[[names.index(n) for n in ("cx", "cy", "cz")]], 0))
+        if not (np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma):
+            return False
+        self._centres.append((float(sd.max()), r.camera.center))
+        return True
+
     def _best_centre(self) -> np.ndarray:
         """The tripod centre: the median of the more certain half (at least
         ``centre_frames``) of the free-pose centres so far."""
@@ -987,21 +991,13 @@ class Tracker:
         it (its rates kept, its angle variances widened). Returns the
         measurement to use."""
         self._centre_check_at = index
-        names_free = ("cx", "cy", "cz")
         try:
             # (several rounds: along the line of sight the fit is flat, and a round or
             # two from the frozen centre stop short of the view's own)
             rf = refine_camera(meas.camera, lidx, self.size, self.model, center=None, estimate_k1=self._want_k1(meas.camera.focal), radii=(4.0, 2.5, 2.5, 2.5, 2.5), max_points=400)
         except ValueError:
             return meas
-        if rf.confidence < self._complete(0.7) or not all(n in rf.params for n in names_free):
-            return meas
-        ci = [list(rf.params).index(n) for n in names_free]
-        sd = np.sqrt(np.maximum(np.diag(rf.covariance)[ci], 0))
-        if not (np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma):
-            return meas
-        self._centres.append((float(sd.max()), rf.camera.center))
-        if len(self._centres) < self.cfg.centre_frames:
+        if not self._add_centre(rf) or len(self._centres) < self.cfg.centre_frames:
             return meas
         new = self._best_centre()
         if np.linalg.norm(new - self.centre) <= self.cfg.centre_move:
