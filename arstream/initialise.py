@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible
-from arstream.support import backed_support, backs, line_support, marking_points, white_mask
+from arstream.support import backed_support, backs, line_support, marking_points, marking_spread, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
@@ -35,6 +35,15 @@ __all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initi
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
 INIT_ACCEPT = 0.6
+#: least markings in view (each with 5 m of it inside the frame,
+#: :func:`arstream.support.marking_spread`) of a camera from the paint alone: a
+#: piece of one or two markings laid on a painted line fits cameras anywhere
+#: (a centre-circle view shows the circle, the halfway line and a touchline)
+MIN_MARKINGS = 3
+#: a still's camera from the detector's lines with less line support than this
+#: is compared with the paint initialiser's (real frames: a refinement on the
+#: ridge detector's few lines can settle a few pixels off)
+PAINT_CHECK = 0.95
 
 
 def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
@@ -200,6 +209,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
             rf, s0 = rk, sk
         if not plausible(rf.camera.center, rf.camera.focal, W, pitch)[0]:
             continue  # the refinement left the cameras a broadcast can have (one marking along one line)
+        if marking_spread(rf.camera, view.bright, pitch)[0] < MIN_MARKINGS:
+            continue  # too little in view to be judged: a piece of one marking on a line fits anywhere
         if s0 > best_s:
             best, best_s = rf, s0
     return (best, best_s) if best is not None else (None, None)
@@ -308,7 +319,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         return CameraEstimate.lost(0, 0.0, reason="no pitch")
     index = LineIndex(detections.line_points)
     r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
-    if r is not None and r.confidence < INIT_ACCEPT:
+    if r is not None and (r.confidence < INIT_ACCEPT or not plausible(r.camera.center, r.camera.focal, W, pitch)[0]):
         r = None
     if r is not None and estimate_k1 and r.n_visible >= 250:
         try:
@@ -325,11 +336,13 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
 
         view = paint_view(image, detections)
         sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
-        if not backed(sup, spread):
+        if not backed(sup, spread) or sup < PAINT_CHECK:
+            # (a backed camera from the detector's lines that still leaves much of
+            # the paint off its markings: the paint's own may do better)
             rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
-                if r is None or backed(sp, spread_p) or (sp or 0.0) > (sup or 0.0):
+                if r is None or (backed(sp, spread_p) and not backed(sup, spread)) or (sp or 0.0) > (sup or 0.0) + 0.02:
                     r, sup, spread = rp, sp, spread_p
         if r is not None and not backed(sup, spread):
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {spread:.0%} of its markings in view on paint)")

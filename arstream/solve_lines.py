@@ -298,7 +298,7 @@ def _same_camera(a: Camera, b: Camera) -> bool:
 
 def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchModel) -> np.ndarray:
     """Which cameras could be a main broadcast camera: above the pitch (3-80 m),
-    outside the near touchline by 3 m, within 20 m of the goal lines' extent,
+    outside the near touchline by 3 to 100 m, within 20 m of the goal lines' extent,
     with a focal length from 0.3 to 12 frame widths.
 
     Parameters
@@ -316,7 +316,7 @@ def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchM
     f = np.asarray(focal, float).reshape(-1)
     hl, hw = pitch.length / 2, pitch.width / 2
     with np.errstate(invalid="ignore"):
-        return (C[:, 1] < -hw - 3) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * width) & (f < 12 * width)
+        return (C[:, 1] < -hw - 3) & (C[:, 1] > -hw - 100) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * width) & (f < 12 * width)
 
 
 def cameras_from_line_pairs(
@@ -565,14 +565,17 @@ def cameras_from_line_pairs(
                 break
         return LineHypotheses(cams, np.array(sc), n, int(len(idx)))
 
-    out = [one(a, b) for a, b in _line_families(L, E, tol_deg, principal_point, W, splits=splits)]
+    # each split both ways round: the flatter family is along the touchlines
+    # while the camera looks within 45 degrees of straight across the pitch; a
+    # penalty area seen from near the halfway line can be farther round
+    out = [one(*ab) for a, b in _line_families(L, E, tol_deg, principal_point, W, splits=splits) for ab in ((a, b), (b, a))]
     if not out:
         return empty
-    # the first split's ``keep`` best and each further split's ``keep // 2``, best
-    # first (the refinement against the paint decides between them)
-    cams, sc = list(out[0].cameras), list(out[0].scores)
-    for h in out[1:]:
-        for cam, v in list(zip(h.cameras, h.scores))[: max(1, keep // 2)]:
+    # the first split's ``keep`` best (each way round) and each further split's
+    # ``keep // 2``, best first (the refinement against the paint decides between them)
+    cams, sc = [], []
+    for i, h in enumerate(out):
+        for cam, v in list(zip(h.cameras, h.scores))[: keep if i < 2 else max(1, keep // 2)]:
             if not any(_same_camera(cam, o) for o in cams):
                 cams.append(cam)
                 sc.append(v)

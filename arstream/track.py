@@ -56,6 +56,7 @@ from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera
+from arstream.solve_lines import plausible
 from arstream.support import backed_support, backs, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
@@ -92,7 +93,8 @@ class TrackerConfig:
     paint_every: int = 4  # while lost, the paint initialiser (real frames) runs at most every this many frames
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
-    min_trusted: float = 0.5  # ... or this much within max_coast frames of one that had it (blur hides paint)
+    min_trusted: float = 0.55  # ... or this much within max_coast frames of one that had it (blur hides paint; above the output test's 0.5 by the tracker's sampling of it)
+    smooth_slack: float = 0.1  # a smoothed camera this much less supported than the filter's own is not output
     paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
     manoeuvre: float = 3.0  # ... but not while the frame's own motion changes pace by more than this (px/frame, analysis frame): a whip pan
     pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
@@ -271,6 +273,8 @@ class Tracker:
         self._motion_last: float | None = None
         self._width_at: dict = {}  # frame -> the widest painted line's width (px) or None, recent frames
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
+        self._paint_noise = self.cfg.paint_noise  # real frames: the running paint noise (see _solve)
+        self._meas_support: tuple = (None, None)  # ((frame, id), line support) of the last measurement judged
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
@@ -281,7 +285,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -332,7 +336,11 @@ class Tracker:
         # a zoom lens bends less as it zooms in: scale with 1/f from the last estimate
         return float(self.k1 * (self._k1_f / f)) if self._k1_f else float(self.k1)
 
-    def _measurement_noise(self, r: Refinement) -> np.ndarray:
+    def _measurement_noise(self, r: Refinement, *, own: bool = False) -> np.ndarray:
+        """The measurement's noise (4, 4) in the filter's terms (pan, tilt, roll,
+        log f) from the refinement's covariance; on real frames scaled by the
+        paint noise (the clip's running factor, see :meth:`_solve`) unless
+        ``own``."""
         names = list(r.params)
         cov = r.covariance
         ang = [names.index(n) for n in ("rx", "ry", "rz")]
@@ -340,12 +348,12 @@ class Tracker:
         vf = float(cov[names.index("logf"), names.index("logf")]) if np.isfinite(cov[names.index("logf"), names.index("logf")]) else 1e-4
         va = max(va, 1e-9) * 4.0
         vf = max(vf, 1e-9) * 4.0
-        if self._paint:
+        if self._paint and not own:
             # real frames: the paint pixels are whole mask pixels, and the neighbours
             # along a painted line share its error, so the refinement's covariance
             # (independent pixels) understates the noise of a measurement
-            va *= self.cfg.paint_noise
-            vf *= self.cfg.paint_noise
+            va *= self._paint_noise
+            vf *= self._paint_noise
         return np.diag([va, va, va, vf])
 
     # --- public API --------------------------------------------------------------
@@ -373,6 +381,7 @@ class Tracker:
         self._conf_ref = 1.0
         self._gated_prev = self._swept_prev = False
         self._last_z = None
+        self._paint_noise = self.cfg.paint_noise
         if not keep_centre:
             self.centre = None
             self._centres.clear()
@@ -576,8 +585,24 @@ class Tracker:
                 self.stats["paint_inits"] += 1
                 self._paint = True
                 self._kf = None
-                if self.centre is not None and np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
-                    self.reset(keep_centre=False)
+                if self.centre is not None:
+                    # the same tripod? the frozen centre, unless the frame's
+                    # paint backs it clearly less (the paint's initialiser
+                    # knows no centre)
+                    try:
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal), radii=(10.0, 5.0, 3.0))
+                    except ValueError:
+                        rc = None
+                    sc = None if rc is None else self._support(index, rc.camera, image)[0]
+                    if sc is not None and sc >= min(sup, self.cfg.paint_accept) - 0.05:
+                        meas = rc
+                    elif np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
+                        self.reset(keep_centre=False)  # another camera
+        if meas is not None and not plausible(meas.camera.center, meas.camera.focal, self.size[0], self.pitch)[0]:
+            # no main broadcast camera (a refinement that slid along one line to a
+            # camera on the grass or a fisheye): no measurement
+            self.stats["implausible"] += 1
+            meas = None
         if meas is None:
             if self._kf is not None and self._coast < self.cfg.max_coast and pred_cam is not None:
                 self._coast += 1
@@ -594,7 +619,7 @@ class Tracker:
         if self._paint and manoeuvre:
             # the operator changing the pan's pace: the paint noise would make the
             # filter lag it by several frames; the measurement's own noise, this frame
-            Rz = Rz / self.cfg.paint_noise
+            Rz = self._measurement_noise(meas, own=True)
             self.stats["manoeuvres"] += 1
         if self._kf is None:
             rate = None
@@ -628,7 +653,24 @@ class Tracker:
                     return CameraEstimate.lost(index, pts, reason="gated")
                 return self._estimate(index, pts, "tracked", pred_cam, 0.3, centre)
             else:
+                x0, P0 = kf.x.copy(), kf.P.copy()
                 kf.update(z, R=Rz)
+                if self._paint and not manoeuvre and self.centre is not None:
+                    if self._lags(index, meas, centre):
+                        # the filter's camera lies off the paint its measurement is
+                        # on: the pan changed pace more gently than the image-motion
+                        # test sees, or the paint noise is too much for this clip's
+                        # measurements and keeps the filter behind a pan. This
+                        # measurement with its own noise (and the filter sure of a
+                        # state that is off by the innovation), and less paint
+                        # noise from here on; it grows back while the filter keeps up
+                        kf.x, kf.P = x0, P0
+                        kf.P[0::2, 0::2] += np.diag(y**2)
+                        kf.update(z, R=self._measurement_noise(meas, own=True))
+                        self._paint_noise = max(1.0, self._paint_noise / 4.0)
+                        self.stats["manoeuvres"] += 1
+                    else:
+                        self._paint_noise = min(self.cfg.paint_noise, self._paint_noise * 1.25)
         self._gated_prev = False
         self._coast = 0
         self._last_z = (index, z)
@@ -636,6 +678,11 @@ class Tracker:
         if self.centre is None:
             # no tripod centre yet: the filter's state (angles about each frame's own,
             # poorly determined centre) is not a camera to output; the measurement is
+            return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
+        if self._paint and self._lags(index, meas, centre):
+            # the filter still off the paint its measurement is on (a whip pan's
+            # change of pace): the measurement, unsmoothed
+            self.stats["unsmoothed"] += 1
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
         cam = self._camera_from_state(self._kf.x, centre)
         est = self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
@@ -847,6 +894,7 @@ class Tracker:
             # never draw with a wrong camera: the frame's paint must back it (docs/evaluate.md)
             sup, spread = self._support(index, cam, self._image)
             info["support"] = sup
+            info["spread"] = spread
             info["judged"] = cam
             if self._passes(index, sup, spread, info.get("source")):
                 self._unsupported = 0
@@ -911,6 +959,13 @@ class Tracker:
         if est.camera is est.info.get("judged"):  # (live: the camera judged when it was made)
             return est
         sup, spread = self._support(est.frame, est.camera)
+        judged, was = est.info.get("judged"), est.info["support"]
+        if judged is not None and sup is not None and was is not None and sup < was - self.cfg.smooth_slack:
+            # the smoother moved the camera off the paint that the filter's own
+            # estimate lay on (a change of pace the motion model lags): that one
+            self.stats["unsmoothed"] += 1
+            est = CameraEstimate(est.frame, est.pts, est.status, judged, est.confidence, est.info)
+            sup, spread = was, est.info.get("spread", 1.0)
         if self._passes(est.frame, sup, spread, est.info.get("source")):
             est.info["support"] = sup
             return est
@@ -918,6 +973,19 @@ class Tracker:
         self.stats[est.status] -= 1
         self.stats["lost"] += 1
         return _unsupported(est.frame, est.pts, sup, spread)
+
+    def _lags(self, index: int, meas: Refinement, centre) -> bool:
+        """Whether the filter's camera (its state after the update, about
+        ``centre``) is less supported by frame ``index``'s paint than the
+        measurement ``meas`` by more than ``smooth_slack``."""
+        if self._image is None:
+            return False
+        key = (index, id(meas))
+        if self._meas_support[0] != key:  # (asked up to twice a frame)
+            self._meas_support = (key, self._support(index, meas.camera, self._image)[0])
+        was = self._meas_support[1]
+        now, _ = self._support(index, self._camera_from_state(self._kf.x, centre), self._image)
+        return was is not None and now is not None and now < was - self.cfg.smooth_slack
 
     def _want_k1(self, focal: float) -> bool:
         """Whether a refinement at this focal length estimates k1: not once it was

@@ -184,9 +184,9 @@ def test_camera_near_homography_fits_the_picture_of_a_perturbed_homography():
 # cameras from ordered pairs of lines, on a synthetic penalty-area view
 
 
-def _penalty_view(size=(1280, 720)):
+def _penalty_view(size=(1280, 720), cam=None):
     W, H = size
-    cam = camera_from_ptz(np.array([-8.0, -62.0, 15.0]), PTZ(pan=-0.55, tilt=0.2, roll=0.0, f=1.6 * W), ((W - 1) / 2, (H - 1) / 2))
+    cam = cam or camera_from_ptz(np.array([-8.0, -62.0, 15.0]), PTZ(pan=-0.55, tilt=0.2, roll=0.0, f=1.6 * W), ((W - 1) / 2, (H - 1) / 2))
     img = _grass(H, W)
     for poly in PITCH.polylines(0.1):
         px = cam.project(np.column_stack([poly, np.zeros(len(poly))]))
@@ -222,6 +222,8 @@ def test_cameras_from_line_pairs_find_a_penalty_area_view():
         ((80.0, -62.0, 15.0), 2048.0, False),  # beyond the goal lines by more than 20 m
         ((-8.0, -62.0, 15.0), 300.0, False),  # a focal length under 0.3 widths (a fisheye's)
         ((-8.0, -62.0, 15.0), 16000.0, False),  # over 12 widths
+        ((-8.0, -140.0, 15.0), 2048.0, False),  # more than 100 m outside the near touchline
+        ((-8.0, -132.0, 15.0), 2048.0, True),  # (98 m)
         ((-8.0, -62.0, float("nan")), 2048.0, False),
     ],
 )
@@ -229,6 +231,35 @@ def test_plausible_broadcast_cameras(centre, focal, expect):
     from arstream.solve_lines import plausible
 
     assert plausible(np.array([centre]), np.array([focal]), 1280, PITCH).tolist() == [expect]
+
+
+def test_cameras_from_line_pairs_with_the_lines_across_the_flatter():
+    # a long lens near the halfway line looking along the pitch at the goal area
+    # (israel_league_wide frame 175's reference camera, f = 3.3 widths, drawn):
+    # the lines across the pitch are then the flatter family in the picture,
+    # which the lines along it usually are; the lines are tried both ways round
+    ref = {e["frame"]: e for e in json.loads((REFERENCE / "israel_league_wide.json").read_text())["frames"]}
+    cam, img = _penalty_view(cam=Camera.from_dict(ref[175]["camera"]))
+    H, W = img.shape[:2]
+    seen = _visible_lines(cam, (W, H))
+
+    def flatness(lines):
+        return np.median([abs(x[0][1]) for x in lines])
+
+    assert flatness([x for x in seen if x[2]]) > flatness([x for x in seen if not x[2]])
+    mask = paint_mask(img)
+    lines = paint_lines(mask, img)[:10]
+    near = cv2.dilate(mask, np.ones((5, 5), np.uint8))
+    hy = cameras_from_line_pairs([dl.line for dl in lines], [dl.endpoints for dl in lines], (W, H), cam.principal_point, near, PITCH)
+    pts = PITCH.sample_points(0.5)
+    best = min(frame_error(cam, c, (W, H), pts, PITCH.symmetries).mean for c in hy.cameras[:3])
+    # unrefined, from lines fitted to 2 px paint, at 3.3 widths (where a
+    # thousandth of a radian is 4 px): under 10 px
+    assert best < 10.0, best
+    # refined against the paint's whole pixels, the narrow view's depth-zoom
+    # ambiguity (f and distance together) leaves it near the still target's 5 px
+    est = register_frame(detect(img), (W, H), image=img)
+    assert est.status == "ok" and frame_error(cam, est.camera, (W, H), pts, PITCH.symmetries).mean < 5.0
 
 
 def test_cameras_from_line_pairs_need_two_lines_of_each_direction():

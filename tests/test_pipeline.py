@@ -201,6 +201,10 @@ def test_analysis_resolution_maps_cameras_exactly():
         pts = an.points(Ellipse((100.0, 80.0), (40.0, 20.0), 0.3).points(16))
         assert np.allclose(np.einsum("ni,ij,nj->n", np.c_[pts, np.ones(16)], e.conic, np.c_[pts, np.ones(16)]), 0, atol=1e-9)
     assert Analysis(640, 360, 960).full and Analysis(640, 360, None).full
+    # a low-resolution frame at its own size (MIN_REDUCTION), not one of 1.5 times
+    assert Analysis(854, 480, 640).full and Analysis(848, 478, 640).full
+    assert (Analysis(960, 540, 640).w, Analysis(1280, 720, 640).w) == (640, 640)
+    assert Analysis(720, 576, 640, pixel_aspect=16 / 15).w == 640  # (other pixels: resampled)
 
 
 @pytest.mark.parametrize(
@@ -208,7 +212,8 @@ def test_analysis_resolution_maps_cameras_exactly():
     [
         ((1280, 720), 1.0, 1),  # 2 px of the frame: 1 analysis px
         ((1920, 1080), 1.0, 1),  # 0.67: at least one
-        ((854, 480), 1.0, 1),  # 1.5: the tie to the narrower
+        ((854, 480), 1.0, 2),  # analysed at its own size (MIN_REDUCTION)
+        ((1000, 562), 1.0, 1),  # 1.28 analysis px
         ((720, 576), 64 / 45, 2),  # an anamorphic SD frame: 1.78
         ((512, 512), 16 / 9, 2),  # the Premier League frames: 2.5
         ((640, 360), 1.0, 2),  # full resolution

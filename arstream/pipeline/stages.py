@@ -47,6 +47,16 @@ def _optional(module: str, attr: str):
     return getattr(importlib.import_module(module), attr, None)
 
 
+#: the least reduction worth making: a frame of square pixels less than this
+#: many times the analysis width (e.g. 854 x 480 for 640) is analysed at its
+#: own size (frames of other pixels are resampled to square ones anyway). Scaling
+#: it by 0.75 saves little and smears its one- or two-pixel painted lines
+#: (israel_league_wide at 854 x 480: 34 % of frames with a camera scaled, 97 %
+#: at its own size), and the line-support test's 2 frame pixels would be 1.5
+#: analysis pixels, which the tracker can only round (2.7 or 1.3 frame pixels)
+MIN_REDUCTION = 1.5
+
+
 class Analysis:
     """The frame size detection and tracking work at, and the map back to frame pixels.
 
@@ -69,7 +79,9 @@ class Analysis:
     ----------
     width, height : frame size
     analysis_width : int or None; None or >= width: full resolution. Rounded
-        to even; the height keeps the aspect ratio (even too).
+        to even; the height keeps the aspect ratio (even too). A frame of
+        square pixels less than :data:`MIN_REDUCTION` times as wide is
+        analysed at its own size.
     pixel_aspect : float, a frame pixel's width over its height (1: square;
         an anamorphic SD stream's sample aspect ratio, or frames resized from
         another shape). The analysis frame has square pixels: its width is
@@ -84,6 +96,8 @@ class Analysis:
             raise ValueError(f"pixel aspect must be between 0.1 and 10, got {pixel_aspect}")
         self.pixel_aspect = float(pixel_aspect)
         shown = self.W * self.pixel_aspect  # the displayed width, in pixels of the frame's height
+        if self.pixel_aspect == 1.0 and analysis_width is not None and 0 < analysis_width and width < MIN_REDUCTION * analysis_width:
+            analysis_width = None  # (a low-resolution frame: its own size, see MIN_REDUCTION)
         if self.pixel_aspect == 1.0 and (analysis_width is None or analysis_width <= 0 or analysis_width >= width):
             w, h = self.W, self.H
         else:
@@ -230,9 +244,9 @@ class TrackStage(Stage):
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
             # the line-support test's 2 px of the frame: the nearest whole number
-            # of analysis pixels, a tie to the narrower (854 x 480 -> 640: 1.5
-            # analysis px; 2 would judge by 2.7 px of the frame, and drew frames
-            # the frame's own test puts below 0.5)
+            # of analysis pixels, a tie to the narrower (1.5 analysis px: 2 would
+            # judge by 2.7 px of the frame, and drew frames the frame's own test
+            # puts below 0.5)
             reach = max(1, math.ceil(2.0 / min(self.analysis.sx, self.analysis.sy) - 0.5))
             auto = isinstance(pitch, str) and pitch == "auto"
             tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=reach, pitch=None if auto else pitch, estimate_pitch=auto) if cls is not None else None
