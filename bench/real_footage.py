@@ -1,7 +1,7 @@
 """Benchmark: the product on the shared real broadcast material (issue 29).
 
 For each shared still, ``arstream register`` (the Premier League frames with
-their pixel aspect 16/9); for each shared clip, ``arstream process`` then the
+their pixel aspect 16/9), and on each clip's reference frames one by one; for each shared clip, ``arstream process`` then the
 ground-truth-free figures of ``arstream eval --video`` (coverage, line support,
 share of frames at >= 0.7, frames drawn below 0.5, jitter proxy); for every
 item, the mean distance to the reference cameras (tests/data/real_reference,
@@ -78,10 +78,7 @@ def still_rows(sheets: Path | None) -> list[dict]:
         img = cv2.imread(str(path))
         H, W = img.shape[:2]
         t0 = time.perf_counter()
-        an = Analysis(W, H, None, pixel_aspect=aspect)
-        work = img if an.full else cv2.resize(img, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
-        est = register_frame(detect(work), (an.w, an.h), image=work)
-        cam = an.camera(est.camera) if est.camera is not None else None
+        est, cam = _register(img, aspect)
         seconds = time.perf_counter() - t0
         sup = None if cam is None else line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share
         refs = references("sequence_epl" if name.startswith("sequence") else name)
@@ -90,6 +87,43 @@ def still_rows(sheets: Path | None) -> list[dict]:
         overlays.append(draw_overlay(img, cam, f"{name}: {est.status}" + (f"  support {sup:.2f}" if sup is not None else ""), pixel_aspect=aspect))
     if sheets is not None:
         sheet(overlays, sheets / "real_registration_stills.jpg")
+    return rows
+
+
+def _register(img: np.ndarray, aspect: float = 1.0, pitch: PitchModel | None = None):
+    """``arstream register`` on one BGR frame: (estimate, camera of the frame or None)."""
+    H, W = img.shape[:2]
+    an = Analysis(W, H, None, pixel_aspect=aspect)
+    work = img if an.full else cv2.resize(img, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
+    est = register_frame(detect(work), (an.w, an.h), image=work, pitch=pitch)
+    return est, (an.camera(est.camera) if est.camera is not None else None)
+
+
+def clip_frame_rows(clips, pitches: dict) -> list[dict]:
+    """Every reference frame of each clip registered on its own, as a still:
+    how many get a camera, and how many of those are within 5 px of the
+    reference (a camera further off is a wrong one)."""
+    import av
+
+    rows = []
+    for name in clips:
+        refs = references(name)
+        pitch = PitchModel(*pitches[name]) if name in pitches else None
+        got, near, dists, t0 = 0, 0, [], time.perf_counter()
+        with av.open(str(SHARED / "clips" / f"{name}.mp4")) as c:
+            for k, frame in enumerate(c.decode(video=0)):
+                if k > max(refs):
+                    break
+                if k not in refs:
+                    continue
+                img = frame.to_ndarray(format="bgr24")
+                est, cam = _register(img, pitch=pitch)
+                if cam is not None:
+                    got += 1
+                    d = distance_1280(refs[k][0], cam, (img.shape[1], img.shape[0]), refs[k][1])
+                    dists.append(d)
+                    near += d <= 5.0
+        rows.append({"item": name + (f" (--pitch {pitches[name][0]:g}x{pitches[name][1]:g})" if name in pitches else ""), "frames": len(refs), "registered": got, "within_5px": near, "distances": dists, "seconds": (time.perf_counter() - t0) / len(refs)})
     return rows
 
 
@@ -172,6 +206,12 @@ def main(argv=None) -> int:
         print("|---|---|---|---|---|")
         for r in still_rows(args.sheets):
             print(f"| {r['item']} | {r['status']} | {_fmt(r['support'])} | {_fmt(r['distance_1280'])} | {r['seconds']:.1f} |", flush=True)
+    if not args.no_stills:
+        print()
+        print("| clip's reference frames, each registered on its own | frames | registered | within 5 px of the reference | distances (px @1280) | seconds a frame |")
+        print("|---|---|---|---|---|---|")
+        for r in clip_frame_rows(args.clips, pitches):
+            print(f"| {r['item']} | {r['frames']} | {r['registered']} | {r['within_5px']} | {', '.join(f'{d:.1f}' for d in r['distances'])} | {r['seconds']:.1f} |", flush=True)
     runs = [(c, None) for c in args.clips] + [(c, pitches[c]) for c in pitches]
     print()
     print("| clip | frames | coverage | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | reference frames within 5 px | fps |")
