@@ -319,7 +319,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         return CameraEstimate.lost(0, 0.0, reason="no pitch")
     index = LineIndex(detections.line_points)
     r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
-    if r is not None and (r.confidence < INIT_ACCEPT or not plausible(r.camera.center, r.camera.focal, W, pitch)[0]):
+    # (with the frame, a camera the detector's few lines on a real frame leave
+    # below INIT_ACCEPT is still judged by its paint, as the paint's are)
+    if r is not None and ((r.confidence < INIT_ACCEPT and image is None) or not plausible(r.camera.center, r.camera.focal, W, pitch)[0]):
         r = None
     if r is not None and estimate_k1 and r.n_visible >= 250:
         try:
