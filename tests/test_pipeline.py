@@ -205,13 +205,17 @@ def test_analysis_resolution_maps_cameras_exactly():
     assert Analysis(854, 480, 640).full and Analysis(848, 478, 640).full
     assert (Analysis(960, 540, 640).w, Analysis(1280, 720, 640).w) == (640, 640)
     assert Analysis(720, 576, 640, pixel_aspect=16 / 15).w == 640  # (other pixels: resampled)
+    # reduced by at most 2 (MAX_REDUCTION): the line-support test's 2 px a whole analysis px
+    assert [Analysis(w, h, 640).w for w, h in ((1920, 1080), (1440, 810), (3840, 2160))] == [960, 720, 1920]
+    assert Analysis(1920, 1080, 0).full and Analysis(1920, 1080, None).full
 
 
 @pytest.mark.parametrize(
     "size, aspect, reach",
     [
         ((1280, 720), 1.0, 1),  # 2 px of the frame: 1 analysis px
-        ((1920, 1080), 1.0, 1),  # 0.67: at least one
+        ((1920, 1080), 1.0, 1),  # analysed at 960 x 540 (MAX_REDUCTION): 1
+        ((3840, 2160), 1.0, 1),  # at 1920 x 1080
         ((854, 480), 1.0, 2),  # analysed at its own size (MIN_REDUCTION)
         ((1000, 562), 1.0, 1),  # 1.28 analysis px
         ((720, 576), 64 / 45, 2),  # an anamorphic SD frame: 1.78

@@ -93,7 +93,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("-o", "--output", metavar="OUT.mp4", help="also record the augmented video")
     p.add_argument("--cameras-out", metavar="FILE", help="also write the cameras as JSON lines")
-    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640; a frame less than 1.5 times as wide, e.g. 854x480, at its own size)")
+    p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640; a frame less than 1.5 times as wide, e.g. 854x480, at its own size, and one more than twice as wide at half its size, e.g. 1920x1080 at 960)")
     from arstream.commands._clip import add_view_arguments
 
     add_view_arguments(p)

@@ -55,6 +55,14 @@ def _optional(module: str, attr: str):
 #: at its own size), and the line-support test's 2 frame pixels would be 1.5
 #: analysis pixels, which the tracker can only round (2.7 or 1.3 frame pixels)
 MIN_REDUCTION = 1.5
+#: the most reduction made: a frame more than this many times the analysis
+#: width is analysed at 1 / MAX_REDUCTION of its size (1920 x 1080 at 960 x
+#: 540 for 640). The line-support test's 2 frame pixels are then at least
+#: one analysis pixel, and the camera is solved to a frame pixel or two:
+#: israel_league_wide scaled to 1920 x 1080 analysed at 640 x 360 had 14
+#: frames drawn that the frame's own test puts below 0.5 (3 frame pixels a
+#: pixel of the tracker's test), at 960 x 540 one at 0.50, and fewer lost
+MAX_REDUCTION = 2.0
 
 
 class Analysis:
@@ -81,7 +89,8 @@ class Analysis:
     analysis_width : int or None; None or >= width: full resolution. Rounded
         to even; the height keeps the aspect ratio (even too). A frame of
         square pixels less than :data:`MIN_REDUCTION` times as wide is
-        analysed at its own size.
+        analysed at its own size, and one more than :data:`MAX_REDUCTION`
+        times as wide at 1 / MAX_REDUCTION of it.
     pixel_aspect : float, a frame pixel's width over its height (1: square;
         an anamorphic SD stream's sample aspect ratio, or frames resized from
         another shape). The analysis frame has square pixels: its width is
@@ -98,6 +107,8 @@ class Analysis:
         shown = self.W * self.pixel_aspect  # the displayed width, in pixels of the frame's height
         if self.pixel_aspect == 1.0 and analysis_width is not None and 0 < analysis_width and width < MIN_REDUCTION * analysis_width:
             analysis_width = None  # (a low-resolution frame: its own size, see MIN_REDUCTION)
+        elif analysis_width is not None and 0 < analysis_width < shown / MAX_REDUCTION:
+            analysis_width = int(math.ceil(shown / MAX_REDUCTION))  # (see MAX_REDUCTION)
         if self.pixel_aspect == 1.0 and (analysis_width is None or analysis_width <= 0 or analysis_width >= width):
             w, h = self.W, self.H
         else:
