@@ -386,6 +386,25 @@ def test_register_a_resized_premier_league_frame(frame):
     assert _distance_1280(*shown, (round(W * a), H), pitch) <= MAX_DISTANCE_1280
 
 
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+@pytest.mark.parametrize("frame", [25, 50])
+def test_register_a_centre_circle_frame_of_the_turf_clip(frame):
+    # artificial_turf_multisport told its size: the detector's camera (the
+    # circle's pole-polar camera refined) is 2-4 px from the reference but
+    # below INIT_ACCEPT (the ridge detector finds few of the lines); judged
+    # by its paint it wins over the paint initialiser's, a member of the
+    # circle's family 1.25 and 1.8 times too far (17 and 568 px before)
+    import av
+
+    with av.open(str(SHARED / "clips" / "artificial_turf_multisport.mp4")) as c:
+        img = next(f for k, f in enumerate(c.decode(video=0)) if k == frame).to_ndarray(format="bgr24")
+    H, W = img.shape[:2]
+    est = register_frame(detect(img), (W, H), image=img, pitch=PitchModel(100.0, 68.0))
+    assert est.status == "ok", est.info
+    ref, pitch, _ = _reference("artificial_turf_multisport", frame)
+    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+
+
 def test_paint_view_tracks_pixels_without_finding_lines_first():
     cam, img = _penalty_view((640, 360))
     v = paint_view(img, detect(img))
