@@ -285,7 +285,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -411,6 +411,8 @@ class Tracker:
                 self._width_at.pop(k, None)
         if self.lag == 0:
             return [self._final(est)]
+        if self._paint and est.status == "ok" and est.info.get("source") in ("paint", "init"):
+            self._backfill(est)
         self._window.append(est)
         out = []
         while len(self._window) > self.lag:
@@ -608,7 +610,10 @@ class Tracker:
                 self._coast += 1
                 return self._estimate(index, pts, "tracked", pred_cam, 0.3 * (1 - self._coast / (self.cfg.max_coast + 1)), centre)
             self.reset()
-            return CameraEstimate.lost(index, pts, reason="no camera")
+            lost = CameraEstimate.lost(index, pts, reason="no camera")
+            if self.lag and image is not None:
+                lost.info["image"] = image.copy()  # (while held: a later camera may reach it, _backfill)
+            return lost
         self._learn(meas)
         if self._paint and self.centre is not None and self._kf is not None and source in ("track", "flow") and index - self._centre_check_at >= self.cfg.centre_every:
             meas = self._check_centre(index, meas, lidx)
@@ -951,9 +956,41 @@ class Tracker:
             return True
         return source not in ("init", "paint") and sup >= self.cfg.min_trusted and index - self._supported_at <= self.cfg.max_coast
 
+    def _backfill(self, est: CameraEstimate) -> None:
+        """Offline, on real frames: a camera found afresh (``est``) is carried
+        back over the frames just before it that got none and are still held
+        (the paint initialiser runs every few frames while lost, and a camera
+        found at frame k would otherwise leave the frames since the last try
+        without one). Each is refined from the later frame's camera against
+        its own paint (about the tripod centre once frozen) and kept while
+        its paint backs it, as a measured camera would be."""
+        cam = est.camera
+        frame = est.frame
+        for j in range(len(self._window) - 1, -1, -1):
+            prev = self._window[j]
+            img = prev.info.get("image")
+            if prev.status != "lost" or img is None or prev.frame != frame - 1:
+                break
+            view = paint_view(img, None, reach=self.support_reach)
+            try:
+                r = refine_camera(cam, view.index, self.size, self.model, center=self.centre, radii=(10.0, 5.0, 3.0))
+            except ValueError:
+                break
+            sup, spread = backed_support(r.camera, view.bright, self.pitch, spacing=0.5)
+            if not backs(sup, spread, self.cfg.min_support) or sup is None or not plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
+                break
+            self._keep_mask(prev.frame, view.bright)
+            centre = self.centre if self.centre is not None else r.camera.center
+            self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64)})
+            self.stats["lost"] -= 1
+            self.stats["ok"] += 1
+            self.stats["backfilled"] += 1
+            cam, frame = r.camera, prev.frame
+
     def _final(self, est: CameraEstimate) -> CameraEstimate:
         """The line-support test again on the camera that is output (the
         smoother moved it): one that fails is "lost"."""
+        est.info.pop("image", None)
         if est.camera is None or "support" not in est.info:
             return est
         if est.camera is est.info.get("judged"):  # (live: the camera judged when it was made)
