@@ -307,9 +307,12 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     With the frame (``image``, BGR, the detections' size) the camera must also
     have a line support of at least ``min_support`` on white paint with half
     its markings in view on paint (:func:`arstream.support.backs`, the
-    tracker's test); when the detector's lines give none that does, the paint
-    initialiser (:func:`initialise_from_paint`, for real broadcast frames) is
-    tried. The support is in ``info["support"]``.
+    tracker's test); when the detector's lines give none that does, or one
+    below :data:`PAINT_CHECK`, the paint initialiser
+    (:func:`initialise_from_paint`, for real broadcast frames) is tried, and
+    the better backed camera kept. With the frame, the detector's camera is
+    judged by its paint even below INIT_ACCEPT (the ridge detector's recall
+    on a real frame). The support is in ``info["support"]``.
     """
     W, H = size
     pitch = pitch or PitchModel()

@@ -345,6 +345,9 @@ def cameras_from_line_pairs(
     pair of model lines of that direction (touchlines, penalty- and goal-area
     sides; goal lines, goal-area and penalty-area fronts, the halfway line),
     fixes a homography (four line correspondences, :func:`homographies_from_lines`).
+    Each split is tried both ways round: the flatter family is along the
+    touchlines only while the camera looks within about 45 degrees of
+    straight across the pitch.
     With the principal point it gives a camera (:func:`decompose_homographies`),
     kept when plausible (:func:`plausible`: above the pitch, outside the near
     touchline, a focal length from 0.3 to 12 widths). Each is scored by the model's markings
