@@ -274,7 +274,7 @@ class Tracker:
         self._width_at: dict = {}  # frame -> the widest painted line's width (px) or None, recent frames
         self._last_z: tuple[int, np.ndarray] | None = None  # (frame, ptz vector) of the last measurement
         self._paint_noise = self.cfg.paint_noise  # real frames: the running paint noise (see _solve)
-        self._meas_support: tuple = (None, None)  # ((frame, id), line support) of the last measurement judged
+        self._judged: dict = {}  # id(camera) -> (frame, camera, its _support) of this frame's cameras judged
         self._last_f = None
         self._window: deque = deque()
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
@@ -661,7 +661,7 @@ class Tracker:
                 x0, P0 = kf.x.copy(), kf.P.copy()
                 kf.update(z, R=Rz)
                 if self._paint and not manoeuvre and self.centre is not None:
-                    if self._lags(index, meas, centre):
+                    if self._lags(index, meas, self._camera_from_state(kf.x, centre)):
                         # the filter's camera lies off the paint its measurement is
                         # on: the pan changed pace more gently than the image-motion
                         # test sees, or the paint noise is too much for this clip's
@@ -684,12 +684,12 @@ class Tracker:
             # no tripod centre yet: the filter's state (angles about each frame's own,
             # poorly determined centre) is not a camera to output; the measurement is
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
-        if self._paint and self._lags(index, meas, centre):
+        cam = self._camera_from_state(self._kf.x, centre)
+        if self._paint and self._lags(index, meas, cam):
             # the filter still off the paint its measurement is on (a whip pan's
             # change of pace): the measurement, unsmoothed
             self.stats["unsmoothed"] += 1
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
-        cam = self._camera_from_state(self._kf.x, centre)
         est = self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
         self._observe_pitch(index, est, lidx)
         return est
@@ -935,12 +935,19 @@ class Tracker:
         share of its markings in view that are on paint (1 with fewer than 3 in
         view); the frame's mask is made from ``image`` once and kept while the
         smoother holds the frame."""
+        hit = self._judged.get(id(cam))
+        if hit is not None and hit[0] == index and hit[1] is cam:  # (a camera judged twice in a frame)
+            return hit[2]
         mask = self._bright.get(index)
         if mask is None:
             if image is None:
                 return None, 1.0
             mask = self._keep_mask(index, white_mask(image, reach=self.support_reach))
-        return backed_support(cam, mask, self.pitch, spacing=0.5)
+        out = backed_support(cam, mask, self.pitch, spacing=0.5)
+        if len(self._judged) > 8:
+            self._judged.clear()
+        self._judged[id(cam)] = (index, cam, out)
+        return out
 
     def _passes(self, index: int, sup: float | None, spread: float, source: str | None) -> bool:
         """The test of a camera to output: line support at least ``min_support``
@@ -1011,17 +1018,14 @@ class Tracker:
         self.stats["lost"] += 1
         return _unsupported(est.frame, est.pts, sup, spread)
 
-    def _lags(self, index: int, meas: Refinement, centre) -> bool:
-        """Whether the filter's camera (its state after the update, about
-        ``centre``) is less supported by frame ``index``'s paint than the
-        measurement ``meas`` by more than ``smooth_slack``."""
+    def _lags(self, index: int, meas: Refinement, cam: Camera) -> bool:
+        """Whether the filter's camera ``cam`` (its state after the update) is
+        less supported by frame ``index``'s paint than the measurement
+        ``meas`` by more than ``smooth_slack``."""
         if self._image is None:
             return False
-        key = (index, id(meas))
-        if self._meas_support[0] != key:  # (asked up to twice a frame)
-            self._meas_support = (key, self._support(index, meas.camera, self._image)[0])
-        was = self._meas_support[1]
-        now, _ = self._support(index, self._camera_from_state(self._kf.x, centre), self._image)
+        was, _ = self._support(index, meas.camera, self._image)
+        now, _ = self._support(index, cam, self._image)
         return was is not None and now is not None and now < was - self.cfg.smooth_slack
 
     def _want_k1(self, focal: float) -> bool:
