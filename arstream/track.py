@@ -541,6 +541,7 @@ class Tracker:
                 elif image is not None and self.centre is not None:
                     meas = self._pan_by_brightness(meas, image, lidx)
         swept_rates = None  # the filter's rates when a sweep restarts it
+        filt_cam: Camera | None = None  # the filter's camera after its update, when judged there
         if meas is None and pred_cam is not None and self.centre is not None and self.cfg.sweep_range > 0:
             # a pan faster than the motion model (a whip pan): blur leaves few markings
             # and the prediction falls behind; search the pan angle, which such a move changes
@@ -661,7 +662,8 @@ class Tracker:
                 x0, P0 = kf.x.copy(), kf.P.copy()
                 kf.update(z, R=Rz)
                 if self._paint and not manoeuvre and self.centre is not None:
-                    if self._lags(index, meas, self._camera_from_state(kf.x, centre)):
+                    filt_cam = self._camera_from_state(kf.x, centre)
+                    if self._lags(index, meas, filt_cam):
                         # the filter's camera lies off the paint its measurement is
                         # on: the pan changed pace more gently than the image-motion
                         # test sees, or the paint noise is too much for this clip's
@@ -672,6 +674,7 @@ class Tracker:
                         kf.x, kf.P = x0, P0
                         kf.P[0::2, 0::2] += np.diag(y**2)
                         kf.update(z, R=self._measurement_noise(meas, own=True))
+                        filt_cam = None  # (the state moved)
                         self._paint_noise = max(1.0, self._paint_noise / 4.0)
                         self.stats["manoeuvres"] += 1
                     else:
@@ -684,7 +687,8 @@ class Tracker:
             # no tripod centre yet: the filter's state (angles about each frame's own,
             # poorly determined centre) is not a camera to output; the measurement is
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
-        cam = self._camera_from_state(self._kf.x, centre)
+        # (the filter's camera once a frame: its line support is judged again below)
+        cam = filt_cam if filt_cam is not None else self._camera_from_state(self._kf.x, centre)
         if self._paint and self._lags(index, meas, cam):
             # the filter still off the paint its measurement is on (a whip pan's
             # change of pace): the measurement, unsmoothed
