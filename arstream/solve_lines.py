@@ -26,7 +26,7 @@ from itertools import combinations
 import numpy as np
 import scipy.spatial
 
-from geometry.camera import Camera, camera_near_homography, decompose_homographies, homographies_from_parallel_lines, intrinsic_matrix
+from geometry.camera import Camera, camera_near_homography, decompose_homographies, homographies_from_parallel_lines_batch, intrinsic_matrix
 from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
 from geometry.pitch import PitchModel
@@ -415,11 +415,11 @@ def cameras_from_line_pairs(
                 if len(par) < 3:
                     continue
                 vals, others = (ys, xs) if axis == 1 else (xs, ys)
+                LT, VT = np.repeat(L[rest], len(others), axis=0), np.tile(others, len(rest))
                 for ti in combinations(par, 3):
                     for tm in combinations(range(len(vals)), 3):
-                        for one in rest:
-                            for o in others:
-                                hs.extend(homographies_from_parallel_lines(L[list(ti)], [vals[m] for m in tm], L[one], o, principal_point, axis=axis))
+                        Hb, okb = homographies_from_parallel_lines_batch(L[list(ti)], [vals[m] for m in tm], LT, VT, principal_point, axis=axis)
+                        hs.extend(Hb[okb])
         Hs = np.array(hs).reshape(-1, 3, 3)
         ok = np.ones(len(Hs), bool)
         n = len(Hs)

@@ -43,6 +43,7 @@ __all__ = [
     "HomographyPoses",
     "decompose_homographies",
     "homographies_from_parallel_lines",
+    "homographies_from_parallel_lines_batch",
     "iac",
     "K_from_iac",
     "rotation_from_ptr",
@@ -596,6 +597,7 @@ def homographies_from_parallel_lines(lines, values, transversal, value: float, p
     Four line correspondences fix a homography only with four independent
     lines; three parallel ones and a transversal leave one degree of freedom,
     which the camera's known principal point and square pixels take up.
+    (One transversal of :func:`homographies_from_parallel_lines_batch`.)
 
     Parameters
     ----------
@@ -613,59 +615,95 @@ def homographies_from_parallel_lines(lines, values, transversal, value: float, p
     camera) to 4 (the directions' signs, which the lines do not tell; the
     translation takes up either sign of the parallel lines' direction)
     """
+    H, ok = homographies_from_parallel_lines_batch(lines, values, np.reshape(transversal, (1, 3)), [value], principal_point, axis=axis)
+    return H[0][ok[0]]
+
+
+def homographies_from_parallel_lines_batch(lines, values, transversals, transversal_values, principal_point, *, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`homographies_from_parallel_lines` for one triple of parallel
+    lines and T transversals at once.
+
+    Parameters
+    ----------
+    lines : (3, 3) image lines of the parallel plane lines ``X[axis] = values[i]``
+    values : (3,) their coordinates (distinct)
+    transversals : (T, 3) image lines of perpendicular plane lines
+    transversal_values : (T,) their coordinates ``X[1 - axis]``
+    principal_point : (2,) pixels
+    axis : 0 or 1, as in :func:`homographies_from_parallel_lines`
+
+    Returns
+    -------
+    H : (T, 4, 3, 3) float64 homographies ``x_img ~ H (X, Y, 1)`` (unit
+        Frobenius norm), one per sign pair of the two directions
+    ok : (T, 4) bool, which of them are cameras (a degenerate transversal,
+        no real focal length or points behind the camera: False)
+    """
     L = np.asarray(lines, dtype=np.float64).reshape(3, 3)
     vals = np.asarray(values, dtype=np.float64).reshape(3)
-    lt = np.asarray(transversal, dtype=np.float64).reshape(3)
+    LT = np.asarray(transversals, dtype=np.float64).reshape(-1, 3)
+    VT = np.asarray(transversal_values, dtype=np.float64).reshape(-1)
     p = np.asarray(principal_point, dtype=np.float64)
-    empty = np.zeros((0, 3, 3))
+    T = len(LT)
+    Hs = np.zeros((T, 4, 3, 3))
+    oks = np.zeros((T, 4), dtype=bool)
+    if T == 0:
+        return Hs, oks
     # the parallel lines' vanishing point: the null vector of the three (normalised) lines
     Ln = L / np.linalg.norm(L[:, :2], axis=1, keepdims=True)
     v_par = np.linalg.svd(Ln)[2][-1]
-    # their crossings with the transversal, and the 1-D map along it
-    A = np.cross(Ln, lt)
-    if np.any(np.abs(A[:, 2]) < 1e-12):
-        return empty
-    A = A[:, :2] / A[:, 2:]
-    d = np.array([lt[1], -lt[0]]) / np.hypot(lt[0], lt[1])
-    s = (A - A[0]) @ d
+    if abs(v_par[2]) < 1e-12 * np.linalg.norm(v_par):
+        return Hs, oks
+    q_par = v_par[:2] / v_par[2] - p
+    # their crossings with each transversal (T, 3, 2), and the 1-D map along it
+    A = np.cross(Ln[None, :, :], LT[:, None, :])
+    good = np.all(np.abs(A[..., 2]) >= 1e-12, axis=1)
+    A = A[..., :2] / np.where(good[:, None, None], A[..., 2:], 1.0)
+    d = np.column_stack([LT[:, 1], -LT[:, 0]]) / np.maximum(np.hypot(LT[:, 0], LT[:, 1]), 1e-300)[:, None]
+    s = np.einsum("tij,tj->ti", A - A[:, :1], d)
     # s = (a v + b) / (c v + 1): a v_i + b - c v_i s_i = s_i
-    M = np.column_stack([vals, np.ones(3), -vals * s])
-    try:
-        a, b, c = np.linalg.solve(M, s)
-    except np.linalg.LinAlgError:
-        return empty
-    v_tr = np.array([A[0, 0] * c + d[0] * a, A[0, 1] * c + d[1] * a, c])  # image of value -> infinity
-    if abs(v_par[2]) < 1e-12 * np.linalg.norm(v_par) or abs(v_tr[2]) < 1e-12 * np.linalg.norm(v_tr):
-        return empty
-    q_par, q_tr = v_par[:2] / v_par[2] - p, v_tr[:2] / v_tr[2] - p
-    f2 = -float(q_par @ q_tr)
-    if not f2 > 0:
-        return empty
-    f = np.sqrt(f2)
-    K = intrinsic_matrix(f, p[0], p[1])
-    Ki = np.linalg.inv(K)
-    r_par = Ki @ np.append(q_par + p, 1.0)
-    r_tr = Ki @ np.append(q_tr + p, 1.0)
-    r_par /= np.linalg.norm(r_par)
-    r_tr /= np.linalg.norm(r_tr)
+    M = np.stack([np.broadcast_to(vals, (T, 3)), np.ones((T, 3)), -vals * s], axis=2)
+    with np.errstate(invalid="ignore", over="ignore"):
+        cond = np.linalg.cond(M)
+    good &= np.isfinite(cond) & (cond < 1e12)
+    M[~good] = np.eye(3)
+    a, b, c = np.linalg.solve(M, np.where(good[:, None], s, 0.0)[..., None])[..., 0].T
+    v_tr = np.column_stack([A[:, 0, 0] * c + d[:, 0] * a, A[:, 0, 1] * c + d[:, 1] * a, c])  # image of value -> infinity
+    good &= np.abs(v_tr[:, 2]) >= 1e-12 * np.linalg.norm(v_tr, axis=1)
+    q_tr = v_tr[:, :2] / np.where(good, v_tr[:, 2], 1.0)[:, None] - p
+    f2 = -(q_tr @ q_par)
+    good &= f2 > 0
+    f = np.sqrt(np.where(good, f2, 1.0))
+
+    def ray(q):  # K^-1 (q + p, 1), normalised: (T, 3)
+        r = np.column_stack([q[..., 0] / f, q[..., 1] / f, np.ones(T)])
+        return r / np.linalg.norm(r, axis=1, keepdims=True)
+
+    r_par, r_tr = ray(np.broadcast_to(q_par, (T, 2))), ray(q_tr)
     # plane X direction is the parallel lines' direction when they are Y = const
     # points (X, Y) on the transversal: depth_i * K^-1 a_i - t = rx X_i + ry Y_i
-    P = np.column_stack([np.full(3, value), vals]) if axis == 1 else np.column_stack([vals, np.full(3, value)])
-    rays = (Ki @ np.column_stack([A, np.ones(3)]).T).T
-    G = np.zeros((9, 6))
+    P = np.zeros((T, 3, 2))
+    P[:, :, axis] = vals
+    P[:, :, 1 - axis] = VT[:, None]
+    rays = np.stack([(A[..., 0] - p[0]) / f[:, None], (A[..., 1] - p[1]) / f[:, None], np.ones((T, 3))], axis=2)
+    G = np.zeros((T, 9, 6))
     for i in range(3):
-        G[3 * i : 3 * i + 3, i] = rays[i]
-        G[3 * i : 3 * i + 3, 3:] = -np.eye(3)
+        G[:, 3 * i : 3 * i + 3, i] = rays[:, i]
+        G[:, 3 * i : 3 * i + 3, 3:] = -np.eye(3)
+    G[~good] = np.eye(9, 6)
     G_pinv = np.linalg.pinv(G)
-    out = []
-    for s1 in (1.0, -1.0):
-        for s2 in (1.0, -1.0):
-            rx, ry = (s1 * r_par, s2 * r_tr) if axis == 1 else (s2 * r_tr, s1 * r_par)
-            U, _, Vt = np.linalg.svd(np.column_stack([rx, ry]), full_matrices=False)
-            rx, ry = (U @ Vt).T
-            sol = G_pinv @ (np.outer(P[:, 0], rx) + np.outer(P[:, 1], ry)).ravel()
-            if not np.all(sol[:3] > 0):
-                continue
-            H = K @ np.column_stack([rx, ry, sol[3:]])
-            out.append(H / np.linalg.norm(H))
-    return np.array(out) if out else empty
+    K = np.zeros((T, 3, 3))
+    K[:, 0, 0] = K[:, 1, 1] = f
+    K[:, :2, 2] = p
+    K[:, 2, 2] = 1.0
+    for k, (s1, s2) in enumerate(((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))):
+        rx, ry = (s1 * r_par, s2 * r_tr) if axis == 1 else (s2 * r_tr, s1 * r_par)
+        U, _, Vt = np.linalg.svd(np.stack([rx, ry], axis=2), full_matrices=False)
+        Q = U @ Vt  # (T, 3, 2): the nearest orthonormal pair
+        rx, ry = Q[..., 0], Q[..., 1]
+        rhs = (P[..., 0, None] * rx[:, None, :] + P[..., 1, None] * ry[:, None, :]).reshape(T, 9)
+        sol = np.einsum("tij,tj->ti", G_pinv, rhs)
+        Hk = K @ np.stack([rx, ry, sol[:, 3:]], axis=2)
+        Hs[:, k] = Hk / np.linalg.norm(Hk, axis=(1, 2))[:, None, None]
+        oks[:, k] = good & np.all(sol[:, :3] > 0, axis=1)
+    return Hs, oks

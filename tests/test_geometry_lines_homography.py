@@ -233,3 +233,31 @@ def test_homographies_from_parallel_lines_degenerate_inputs():
     # two of the values the same: no 1-D map along the transversal
     conv = [np.array([0.1, 1.0, -300.0]), np.array([0.0, 1.0, -400.0]), np.array([-0.1, 1.0, -500.0])]
     assert len(homographies_from_parallel_lines(conv, [0.0, 0.0, 20.0], np.array([1.0, 0.0, -600.0]), 0.0, pp, axis=1)) == 0
+
+
+def test_homographies_from_parallel_lines_batch_is_one_call_per_transversal():
+    # the batch over T transversals gives, row by row, what one call per
+    # transversal gives; a degenerate transversal (through the lines' crossing
+    # with the others, or parallel to them) is a row of ``ok`` False, not an error
+    from geometry.camera import homographies_from_parallel_lines, homographies_from_parallel_lines_batch
+    from geometry.lines import line_through
+
+    from cameras import looking_at
+
+    cam = looking_at((30.0, -60.0, 15.0), (40.0, 5.0, 0.0), 1500.0)
+
+    def image_line(p, q):
+        a, b = cam.project(np.array([[*p, 0.0], [*q, 0.0]]))
+        return line_through((*a, 1.0), (*b, 1.0))
+
+    vals = [36.0, 46.98, 52.44]
+    lines = [image_line((x, -25), (x, 25)) for x in vals]
+    values = [20.16, -20.16, 9.16, 0.0, 5.0]
+    trans = [image_line((30, y), (52, y)) for y in values[:3]] + [lines[0], np.array([0.3, 1.0, -400.0])]
+    H, ok = homographies_from_parallel_lines_batch(lines, vals, trans, values, cam.principal_point, axis=0)
+    assert H.shape == (5, 4, 3, 3) and ok.shape == (5, 4)
+    assert not ok[3].any()  # one of the three lines itself
+    for k in range(5):
+        one = homographies_from_parallel_lines(lines, vals, trans[k], values[k], cam.principal_point, axis=0)
+        assert len(one) == ok[k].sum()
+        assert np.array_equal(H[k][ok[k]], one)
