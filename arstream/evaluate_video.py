@@ -45,7 +45,7 @@ import numpy as np
 
 from arstream.errors import InputError
 from arstream.sink import read_jsonl
-from arstream.support import MIN_POINTS, bright_mask, jitter_proxy, line_support, marking_points
+from arstream.support import MIN_POINTS, frame_mask, jitter_proxy, line_support, marking_points
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
@@ -334,8 +334,7 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
             status, cam = by_frame.get(f.index, ("missing", None))
             share, n_inside = None, 0
             if cam is not None:
-                mask = bright_mask(f.gray, video_range=f.yuv is not None)
-                s = line_support(cam, mask, points)
+                s = line_support(cam, frame_mask(f), points)
                 share, n_inside = s.share, s.n_inside
             per_frame.append(FrameSupport(f.index, status, share, n_inside))
             cams.append(cam)

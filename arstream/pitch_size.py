@@ -24,6 +24,18 @@ pixels of one line share its error (its centre on a compressed, blurred
 picture), so the noise alone would understate it, and views alike leave
 the jackknife near zero.
 
+On real broadcast clips the tracker's own cameras at a wrong size are wrong
+(they fit the near markings), so the views this estimate is made from are
+too. :func:`choose_size` is the other way in, used by default on files
+(:func:`arstream.pipeline.process`): a clip whose markings fit poorly at
+105 x 68 (median line support below :data:`SCAN_BELOW`) is tracked again at
+other sizes (the grid :data:`SCAN_LENGTHS` x :data:`SCAN_WIDTHS`, one step
+from 105 x 68 along each axis, then one step from the best of those), and
+the size whose cameras lay the most of the markings on paint is kept when
+it wins by :data:`SCAN_MARGIN`.
+Line support (docs/evaluate.md) needs no ground truth and judges a whole clip:
+a wrong size leaves every view's far markings off their paint.
+
 Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
 spot); pixels of the views' frames.
 """
@@ -42,12 +54,32 @@ from arstream.solve_kernels import project_points
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "estimate_pitch_size", "size_derivatives"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "needs_scan", "choose_size", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
 LENGTH_RANGE = (95.0, 115.0)
 WIDTH_RANGE = (58.0, 80.0)
+
+#: a clip whose median line support at the default size is below this is
+#: tracked again at other sizes (:func:`needs_scan`): a scan costs time, not
+#: cameras (the default stays unless another size wins by :data:`SCAN_MARGIN`).
+#: Clips of the right size score 0.98-1.00 on the shared real material at
+#: 720p and 0.99-1.00 on the synthetic presets; a 99.85 m pitch tracked as
+#: 105 m, 0.82; synthetic clips of other sizes 0.78-0.94
+SCAN_BELOW = 0.95
+#: how much higher another size's median line support must be to replace
+#: the default (:func:`choose_size`): the same clip tracked at sizes that fit
+#: it equally well differs by up to about 0.02 (israel_league_wide at 480p:
+#: 0.860-0.876 at 100, 105 and 110 m), a size 5 m off by 0.15-0.18
+SCAN_MARGIN = 0.05
+#: the lengths and widths a scan tries (metres): Law 1's international range
+#: (100-110 x 64-75 m) on a grid of about its half-widths, 105 x 68 at the
+#: centre (:func:`grid_neighbours`)
+SCAN_LENGTHS = (100.0, 105.0, 110.0)
+SCAN_WIDTHS = (64.0, 68.0, 72.0)
+#: fewest frames with a camera for a median line support to go by
+SCAN_MIN_FRAMES = 25
 
 
 @dataclass(frozen=True)
@@ -76,8 +108,9 @@ class PitchSize:
     length_sd, width_sd : standard deviations (metres) of an estimated
         dimension; None where the size was given, or the views did not fix that
         dimension (then it is the prior's)
-    source : "given", "default" (nothing estimated yet) or "estimated"
-    views : number of views the estimate used
+    source : "given", "default" (nothing estimated yet), "estimated" or
+        "scanned" (chosen by :func:`choose_size`)
+    views : number of views the estimate used (frames the scan judged by)
     centre : (3,) metres, the tripod centre refined with it (None unless estimated)
     cameras : the views' cameras refined with it (empty unless estimated)
     rms : px, RMS of the inlier residuals of the fit (None unless estimated)
@@ -92,6 +125,7 @@ class PitchSize:
     centre: np.ndarray | None = None
     cameras: tuple = ()
     rms: float | None = None
+    scan: "SizeScan | None" = None
 
     def model(self, line_width: float | None = None) -> PitchModel:
         """The :class:`PitchModel` of this size."""
@@ -113,15 +147,135 @@ class PitchSize:
         if self.source == "given":
             return s + " (given)"
         if self.source == "default":
-            return s + " (default)"
+            return s + " (default" + (f"; {self.scan.describe()}" if self.scan is not None else "") + ")"
+        if self.source == "scanned":
+            return s + f" ({self.scan.describe()})"
         kept = [n for n, c in zip(("length", "width"), self.constrained) if not c]
         tail = f"; {' and '.join(kept)} not constrained by the views: default kept" if kept else ""
+        if self.scan is not None:
+            L, W = self.scan.size
+            tail += f"; from {L:g} x {W:g}, {self.scan.describe()}"
         return s + f" (estimated from {self.views} views{tail})"
 
     def to_dict(self) -> dict:
-        """JSON-ready: length, width, their sd (null where not estimated), source, views."""
+        """JSON-ready: length, width, their sd (null where not estimated), source,
+        views, and the scan's figures where there was one (:meth:`SizeScan.to_dict`)."""
         r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
-        return {"length": r(self.length), "width": r(self.width), "length_sd": r(self.length_sd), "width_sd": r(self.width_sd), "source": self.source, "views": self.views}
+        out = {"length": r(self.length), "width": r(self.width), "length_sd": r(self.length_sd), "width_sd": r(self.width_sd), "source": self.source, "views": self.views}
+        if self.scan is not None:
+            out["scan"] = self.scan.to_dict()
+        return out
+
+
+@dataclass(frozen=True)
+class SizeScan:
+    """One clip tracked at several pitch sizes, judged by line support.
+
+    Attributes
+    ----------
+    sizes : tuple of (length, width) in metres, the default's first
+    median : tuple of float or None, each size's median line support over
+        the frames it gave a camera (None: fewer than :data:`SCAN_MIN_FRAMES`)
+    coverage : tuple of float, each size's share of the frames with a camera
+    frames : frames tracked at each size
+    chosen : index into ``sizes`` of the size kept
+    """
+
+    sizes: tuple
+    median: tuple
+    coverage: tuple
+    frames: int
+    chosen: int
+
+    @property
+    def size(self) -> tuple[float, float]:
+        return self.sizes[self.chosen]
+
+    def describe(self) -> str:
+        """e.g. ``chosen by line support on 176 frames: 100 x 68 0.99, 105 x 68 0.82, 110 x 68 0.93``."""
+        parts = ", ".join(f"{L:g} x {W:g} {'-' if m is None else f'{m:.2f}'}" for (L, W), m in sorted(zip(self.sizes, self.median)))
+        verb = "kept" if self.chosen == 0 else "chosen"
+        return f"{verb} by line support on {self.frames} frames: {parts}"
+
+    def to_dict(self) -> dict:
+        r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
+        return {"sizes": [[float(L), float(W)] for L, W in self.sizes], "median_support": [r(m) for m in self.median], "coverage": [r(c) for c in self.coverage], "frames": self.frames, "chosen": self.chosen}
+
+
+def _median(supports) -> float | None:
+    v = [float(x) for x in supports if x is not None and np.isfinite(x)]
+    return float(np.median(v)) if len(v) >= SCAN_MIN_FRAMES else None
+
+
+def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES) -> bool:
+    """Whether a clip tracked at the default size should be tracked at others:
+    its median line support (over the frames with a camera; ``supports`` one
+    value per judged frame, None for a frame without one) is below
+    :data:`SCAN_BELOW`, over at least ``min_frames`` frames."""
+    v = [float(x) for x in supports if x is not None and np.isfinite(x)]
+    return len(v) >= max(1, int(min_frames)) and float(np.median(v)) < SCAN_BELOW
+
+
+def grid_neighbours(size) -> list[tuple[float, float]]:
+    """The sizes one step from ``size`` (length, width) along either axis of the
+    scan's grid (:data:`SCAN_LENGTHS` x :data:`SCAN_WIDTHS`), lengths first;
+    ``size`` must be on the grid."""
+    L, W = (float(v) for v in size)
+    if L not in SCAN_LENGTHS or W not in SCAN_WIDTHS:
+        raise ValueError(f"{L:g} x {W:g} m is not on the scan's grid ({SCAN_LENGTHS} x {SCAN_WIDTHS})")
+    i, j = SCAN_LENGTHS.index(L), SCAN_WIDTHS.index(W)
+    out = [(SCAN_LENGTHS[k], W) for k in (i - 1, i + 1) if 0 <= k < len(SCAN_LENGTHS)]
+    return out + [(L, SCAN_WIDTHS[k]) for k in (j - 1, j + 1) if 0 <= k < len(SCAN_WIDTHS)]
+
+
+def choose_size(sizes, supports) -> SizeScan:
+    """The size whose cameras the clip's paint backs best.
+
+    Parameters
+    ----------
+    sizes : sequence of (length, width), the default's first
+    supports : one sequence per size, a line support per frame (None where
+        that size's tracker gave no camera), all of the same frames
+
+    Returns
+    -------
+    SizeScan. Another size replaces the default only with a median line
+    support higher by :data:`SCAN_MARGIN` and a coverage no lower by more
+    than 5 points (a size that finds cameras on fewer frames is not a
+    better fit for scoring only its easy ones), and only when the default
+    has a median itself (the scan's trackers followed the clip). A dimension along which a
+    smaller and a larger size both beat the default so, within
+    :data:`SCAN_MARGIN` of each other, is inconclusive (a pitch is not both
+    shorter and longer: the clip's support does not tell its sizes apart,
+    e.g. a low-resolution clip of long-lens views), and no size that changes
+    it is chosen.
+    """
+    sizes = tuple((float(L), float(W)) for L, W in sizes)
+    if len(supports) != len(sizes) or not sizes:
+        raise ValueError(f"one list of supports per size: {len(sizes)} sizes, {len(supports)} lists")
+    frames = len(supports[0])
+    if any(len(s) != frames for s in supports):
+        raise ValueError("every size's supports must be of the same frames")
+    med = tuple(_median(s) for s in supports)
+    cov = tuple(float(np.mean([x is not None for x in s])) if frames else 0.0 for s in supports)
+    d = sizes[0]
+    # (a default without a median, its tracker lost on most frames, is no
+    # baseline: the scan's trackers cannot follow this clip, and the default stays)
+    higher = [k > 0 and med[0] is not None and med[k] is not None and med[k] >= med[0] + SCAN_MARGIN for k in range(len(sizes))]
+    beats = [h and cov[k] >= cov[0] - 0.05 for k, h in enumerate(higher)]
+    open_axes = []
+    for a in (0, 1):
+        # (the evidence against a dimension counts a size on fewer frames too)
+        along = [k for k in range(1, len(sizes)) if higher[k] and sizes[k][1 - a] == d[1 - a]]
+        lo = [med[k] for k in along if sizes[k][a] < d[a]]
+        hi = [med[k] for k in along if sizes[k][a] > d[a]]
+        if lo and hi and abs(max(lo) - max(hi)) < SCAN_MARGIN:
+            open_axes.append(a)
+    chosen = 0
+    for k in range(1, len(sizes)):
+        if beats[k] and all(sizes[k][a] == d[a] for a in open_axes) and (chosen == 0 or med[k] > med[chosen]):
+            chosen = k
+    return SizeScan(sizes, med, cov, frames, chosen)
 
 
 def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray, np.ndarray]:

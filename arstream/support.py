@@ -73,6 +73,7 @@ __all__ = [
     "REACH",
     "SPACING",
     "MIN_POINTS",
+    "frame_mask",
     "Support",
     "Jitter",
     "bright_mask",
@@ -190,6 +191,14 @@ def bright_mask(luma: np.ndarray, *, video_range: bool = False, box: int = BOX, 
     if reach:
         bright = cv2.dilate(bright, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8))
     return bright.view(bool)
+
+
+def frame_mask(frame) -> np.ndarray:
+    """:func:`bright_mask` of a decoded frame (:class:`arstream.source.Frame`):
+    its Y plane as it came from the decoder (limited range) on the fast path,
+    else the luma of its BGR image. The mask line support is defined on
+    (docs/evaluate.md), at the frame's own size."""
+    return bright_mask(frame.gray, video_range=frame.yuv is not None)
 
 
 def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:

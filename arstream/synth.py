@@ -1112,8 +1112,11 @@ def _clip_halfplane(poly: np.ndarray, n: np.ndarray, offset: float) -> np.ndarra
 
 
 # ---------------------------------------------------------------------------
-def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250, size=None, fps: float = 25.0, crf: int | None = None, pixel_aspect=None, progress=None) -> dict:
+def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250, size=None, fps: float = 25.0, crf: int | None = None, pixel_aspect=None, pitch=None, progress=None) -> dict:
     """Write ``clip.mp4``, ``truth.jsonl`` and ``header.json`` into ``out_dir``.
+
+    ``pitch``: the pitch's size, a PitchModel or (length, width) in metres
+    (default: 105 x 68, or the realistic family's size drawn per seed).
 
     ``size``, ``crf`` and ``pixel_aspect`` default to the preset's (the
     realistic family's :class:`~arstream.presets.RealPreset`), else 1280 x 720,
@@ -1129,7 +1132,9 @@ def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250,
 
     from arstream.sink import JsonlWriter, VideoSink
 
-    clip = SynthClip(preset, seed, frames, size, fps, pixel_aspect=pixel_aspect)
+    if pitch is not None and not isinstance(pitch, PitchModel):
+        pitch = PitchModel(*(float(v) for v in pitch))
+    clip = SynthClip(preset, seed, frames, size, fps, pitch=pitch, pixel_aspect=pixel_aspect)
     if crf is None:
         crf = clip.preset.crf if isinstance(clip.preset, RealPreset) else 23
     w, h = clip.size

@@ -224,7 +224,7 @@ class Tracker:
     lag : 0 for live (causal) output; N > 0 for an RTS smoother over a sliding
         window, estimates emitted N frames late
     pitch : PitchModel (default 105 x 68 m)
-    estimate_pitch : with ``pitch`` None, start from 105 x 68 m and estimate
+    estimate_pitch : start from ``pitch`` (None: 105 x 68 m) and estimate
         the size from the first views of the clip
         (:func:`arstream.pitch_size.estimate_pitch_size`; :attr:`pitch_size`
         says what was found). Experimental: on synthetic clips the length
@@ -246,7 +246,7 @@ class Tracker:
         self.lag = int(lag)
         self.pitch = pitch or PitchModel()
         self.pitch_size = PitchSize(self.pitch.length, self.pitch.width, source="default" if pitch is None else "given")
-        self._pitch_views: list[PitchView] | None = [] if pitch is None and estimate_pitch else None
+        self._pitch_views: list[PitchView] | None = [] if estimate_pitch else None
         self._pitch_view_at = -(10**9)
         self.pp = np.array(principal_point if principal_point is not None else ((width - 1) / 2, (height - 1) / 2), dtype=np.float64)
         self.cfg = config or TrackerConfig()

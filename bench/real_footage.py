@@ -140,7 +140,9 @@ def clip_rows(clips, pitches: dict, sheets: Path | None) -> list[dict]:
             seconds = time.perf_counter() - t0
             draw = tmp / "draw"
             recs = [json.loads(x) for x in cams.read_text().splitlines()]
-            score = evaluate_video(str(path), recs, pitch=PitchModel(*pitch) if pitch else None, draw_every=25, draw_dir=str(draw))
+            # (judged at the size the run drew with: given, or found by its scan)
+            used = summary.pitch or {"length": 105.0, "width": 68.0}
+            score = evaluate_video(str(path), recs, pitch=PitchModel(used["length"], used["width"]), draw_every=25, draw_dir=str(draw))
             shares = [f.share for f in score.per_frame if f.share is not None]
             drawn = [f.share for f in score.per_frame if f.status in ("ok", "tracked") and f.share is not None]
             refs = references(name)
@@ -151,7 +153,7 @@ def clip_rows(clips, pitches: dict, sheets: Path | None) -> list[dict]:
                 dists.append(float("inf") if cam is None else distance_1280(ref, cam, (score.width, score.height), rpitch))
             rows.append(
                 {
-                    "item": name + (f" (--pitch {pitch[0]:g}x{pitch[1]:g})" if pitch else ""),
+                    "item": name + (f" (--pitch {pitch[0]:g}x{pitch[1]:g})" if pitch else (f" ({summary.pitch_text})" if "scan" in used else "")),
                     "frames": summary.frames,
                     "coverage": score.coverage,
                     "support_median": score.support_median,

@@ -52,14 +52,15 @@ def test_the_stream_s_pixel_aspect_and_the_pitch_give_the_exact_camera(sd_clip, 
 
 
 def test_a_wrong_pixel_aspect_or_pitch_costs_accuracy(sd_clip, tmp_path):
-    # the same clip told square pixels, or left at 105 x 68: the cameras no
-    # longer fit (this is what the two options are for)
+    # the same clip told square pixels, or told 105 x 68: the cameras no
+    # longer fit (this is what the two options are for; with no size given,
+    # the pitch's size is scanned for: tests/test_pitch_size.py)
     clip, header = sd_clip
     pitch = (header["pitch"]["length"], header["pitch"]["width"])
     square = tmp_path / "square.jsonl"
     process(clip / "clip.mp4", cameras_out=square, pitch=pitch, pixel_aspect=1.0, handle_signals=False)
     default = tmp_path / "default.jsonl"
-    process(clip / "clip.mp4", cameras_out=default, handle_signals=False)
+    process(clip / "clip.mp4", cameras_out=default, pitch=(105, 68), handle_signals=False)
     for path in (square, default):
         sc = score_files(clip / "truth.jsonl", path)
         assert not (sc.coverage == 1.0 and sc.median < 1.0), (path.name, sc)

@@ -118,12 +118,146 @@ def test_the_pipeline_estimates_an_odd_pitch(tmp_path):
     assert s.to_dict()["pitch"] == got
 
 
-def test_without_auto_the_size_is_the_default_and_not_estimated(tmp_path):
+# --------------------------------------------------------------------------- the scan
+def _sup(value, n=30, lost=0):
+    return [value] * (n - lost) + [None] * lost
+
+
+@pytest.mark.parametrize(
+    "medians, lost, chosen",
+    [
+        ((0.82, 0.99, 0.93), (0, 0, 0), 1),  # one size fits clearly better
+        ((0.82, 0.86, 0.93), (0, 0, 0), 2),  # the best of those beating the default by the margin
+        ((0.90, 0.94, 0.93), (0, 0, 0), 0),  # better, but by less than SCAN_MARGIN: the default stays
+        ((0.82, 0.99, 0.93), (0, 3, 0), 2),  # 0.99 on 10 % fewer frames is no better fit: the next best
+        ((0.82, 0.99, 0.93), (0, 1, 0), 1),  # 3 % fewer frames: allowed
+        ((None, 0.90, 0.80), (30, 0, 0), 0),  # the default found too few cameras: no baseline, it stays
+        ((0.88, 0.94, 0.95), (0, 0, 0), 0),  # shorter and longer both win: the length is open, the default stays
+    ],
+)
+def test_choose_size_rule(medians, lost, chosen):
+    from arstream.pitch_size import choose_size
+
+    sizes = [(105, 68), (100, 68), (110, 68)]
+    got = choose_size(sizes, [_sup(m, lost=k) for m, k in zip(medians, lost)])
+    assert got.chosen == chosen and got.size == sizes[chosen] and got.frames == 30
+    assert got.median[0] == medians[0] and got.coverage[0] == pytest.approx(1 - lost[0] / 30)
+
+
+def test_an_open_dimension_leaves_the_other_to_choose():
+    # both lengths beat 105 (inconclusive), the wider pitch too: the width changes alone
+    from arstream.pitch_size import choose_size
+
+    sizes = [(105, 68), (100, 68), (110, 68), (105, 64), (105, 72), (100, 72)]
+    got = choose_size(sizes, [_sup(m) for m in (0.80, 0.90, 0.91, 0.70, 0.88, 0.99)])
+    assert got.size == (105.0, 72.0)
+
+
+def test_choose_size_needs_enough_frames_and_matching_lists():
+    from arstream.pitch_size import SCAN_MIN_FRAMES, choose_size
+
+    few = choose_size([(105, 68), (100, 68)], [_sup(0.8, n=SCAN_MIN_FRAMES - 1), _sup(1.0, n=SCAN_MIN_FRAMES - 1)])
+    assert few.median == (None, None) and few.chosen == 0  # too few frames to go by
+    with pytest.raises(ValueError, match="one list of supports per size: 2 sizes, 1 lists"):
+        choose_size([(105, 68), (100, 68)], [_sup(0.8)])
+    with pytest.raises(ValueError, match="every size's supports must be of the same frames"):
+        choose_size([(105, 68), (100, 68)], [_sup(0.8), _sup(0.9, n=29)])
+
+
+def test_needs_scan_and_grid_neighbours():
+    from arstream.pitch_size import SCAN_BELOW, grid_neighbours, needs_scan
+
+    assert needs_scan([SCAN_BELOW - 0.01] * 10 + [None] * 50, min_frames=10)
+    assert not needs_scan([SCAN_BELOW] * 10, min_frames=10)
+    assert not needs_scan([0.5] * 9 + [None], min_frames=10)  # too few frames with a camera
+    assert grid_neighbours((105, 68)) == [(100.0, 68.0), (110.0, 68.0), (105.0, 64.0), (105.0, 72.0)]
+    assert grid_neighbours((100, 72)) == [(105.0, 72.0), (100.0, 68.0)]
+    with pytest.raises(ValueError, match=r"102 x 68 m is not on the scan's grid"):
+        grid_neighbours((102, 68))
+
+
+def test_a_scanned_size_says_how_it_was_chosen():
+    from arstream.pitch_size import choose_size
+
+    scan = choose_size([(105, 68), (100, 68)], [_sup(0.82), _sup(0.99)])
+    size = PitchSize(100.0, 68.0, source="scanned", views=30, scan=scan)
+    assert size.describe() == "pitch 100.0 x 68.0 m (chosen by line support on 30 frames: 100 x 68 0.99, 105 x 68 0.82)"
+    d = size.to_dict()
+    assert d["source"] == "scanned" and d["scan"] == {"sizes": [[105.0, 68.0], [100.0, 68.0]], "median_support": [0.82, 0.99], "coverage": [1.0, 1.0], "frames": 30, "chosen": 1}
+    kept = PitchSize(105.0, 68.0, views=30, scan=choose_size([(105, 68), (100, 68)], [_sup(0.9), _sup(0.92)]))
+    assert kept.describe() == "pitch 105.0 x 68.0 m (default; kept by line support on 30 frames: 100 x 68 0.92, 105 x 68 0.90)"
+
+
+def test_a_given_size_is_not_scanned(tmp_path):
     from arstream.pipeline import process
     from arstream.synth import generate
 
     generate(tmp_path / "clip", preset="real-sd", seed=0, frames=40)
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", handle_signals=False)
-    assert s.pitch == {"length": 105.0, "width": 68.0, "length_sd": None, "width_sd": None, "source": "default", "views": 0}
     s = process(tmp_path / "clip" / "clip.mp4", cameras_out=tmp_path / "cams.jsonl", pitch=(100, 70), handle_signals=False)
-    assert s.pitch["source"] == "given" and s.pitch_text == "pitch 100.0 x 70.0 m (given)"
+    assert s.pitch == {"length": 100.0, "width": 70.0, "length_sd": None, "width_sd": None, "source": "given", "views": 0}
+    assert s.pitch_text == "pitch 100.0 x 70.0 m (given)"
+
+
+def test_the_default_finds_an_odd_pitch(tmp_path):
+    # a synthetic clip of a 100 x 68 m pitch processed with no size given: its
+    # markings fit 105 x 68 poorly, the scan finds 100 x 68, and the second
+    # run (its size estimated from there) writes the outputs
+    from arstream.evaluate import score_files
+    from arstream.pipeline import process
+    from arstream.synth import generate
+
+    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
+    cams = tmp_path / "cams.jsonl"
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    assert s.pitch["source"] in ("scanned", "estimated"), s.pitch_text
+    scan = s.pitch["scan"]
+    assert scan["sizes"][scan["chosen"]] == [100.0, 68.0] and scan["frames"] == FRAMES_ODD, s.pitch_text
+    assert abs(s.pitch["length"] - 100.0) <= 1.0 and abs(s.pitch["width"] - 68.0) <= 1.0, s.pitch_text
+    assert s.frames == FRAMES_ODD and len(cams.read_text().splitlines()) == FRAMES_ODD
+    assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    # against the truth, the cameras are far better than those at 105 x 68
+    # (the estimate is adopted once it has its views, a second into the clip:
+    # the frames before are drawn at the grid's size)
+    fixed = tmp_path / "fixed.jsonl"
+    f = process(tmp_path / "clip" / "clip.mp4", cameras_out=fixed, pitch=(105, 68), handle_signals=False)
+    sc, sc_fixed = score_files(tmp_path / "clip" / "truth.jsonl", cams), score_files(tmp_path / "clip" / "truth.jsonl", fixed)
+    assert sc.coverage >= 0.95 and sc.median < 0.5 * sc_fixed.median, (sc, sc_fixed)
+    # the summary's times are all the runs' (the first, the scan's, the second)
+    assert s.seconds > 2 * f.seconds and s.cpu_seconds > 2 * f.cpu_seconds
+
+
+FRAMES_ODD = 30
+
+
+@pytest.mark.parametrize("stop_in", [2, 4], ids=["during-the-scan", "during-the-second-run"])
+def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in):
+    # SIGINT while the scan (the 2nd and 3rd passes over the clip) or the second
+    # run (the 4th) goes on: Interrupted carries the first run's summary, and
+    # its outputs, complete, are what is on disk (nothing of the second run's)
+    import os
+    import signal
+
+    from arstream.pipeline import Interrupted, process
+    from arstream.synth import generate
+
+    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
+    clip = tmp_path / "clip" / "clip.mp4"
+    fixed = tmp_path / "fixed.jsonl"
+    process(clip, cameras_out=fixed, pitch=(105, 68), handle_signals=False)
+    passes = []
+
+    def progress(done, total):
+        if done == 1:
+            passes.append(0)
+        if len(passes) == stop_in and done == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    out, cams = tmp_path / "out" / "o.mp4", tmp_path / "out" / "c.jsonl"
+    out.parent.mkdir()
+    with pytest.raises(Interrupted) as e:
+        process(clip, out, cameras_out=cams, progress=progress)
+    s = e.value.summary
+    assert e.value.signum == signal.SIGINT and s.interrupted == signal.SIGINT
+    assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
+    assert cams.read_bytes() == fixed.read_bytes()  # the first run's, at 105 x 68
+    assert sorted(p.name for p in out.parent.iterdir()) == ["c.jsonl", "o.mp4"]

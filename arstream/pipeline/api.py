@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import importlib.util
 import os
 import sys
@@ -15,8 +16,8 @@ from arstream.errors import InputError, SourceLost
 from arstream.pipeline.encode import EncodeStage
 from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Stage, ThreadedStage
-from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, TrackStage
-from arstream.pipeline.summary import Summary
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, JUDGE_EVERY, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, TrackStage
+from arstream.pipeline.summary import Interrupted, Summary
 from arstream.source import DEFAULT_RECONNECT, DEFAULT_TIMEOUT, VideoSource, open_live
 
 __all__ = ["process", "render_clip", "stream", "DEFAULT_LAG", "WORKER_NICE"]
@@ -177,10 +178,14 @@ def process(
     handle_signals : stop gracefully on SIGINT/SIGTERM (main thread only)
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     pitch : (length, width) in metres or a ``geometry.pitch.PitchModel``, when
-        the pitch's size is known (default 105 x 68); "auto": start from
-        105 x 68 and estimate the size from the clip's first views
-        (:mod:`arstream.pitch_size`, experimental: ``summary.pitch`` says what
-        was found)
+        the pitch's size is known. None (default): 105 x 68, and when the
+        clip's markings fit it poorly (:func:`arstream.pitch_size.needs_scan`)
+        the clip is tracked again at other sizes and, when one fits better
+        (:func:`arstream.pitch_size.choose_size`), run again from it with the
+        size estimated; ``summary.pitch`` says what was done (its ``scan``
+        the sizes' line support). "auto": start from 105 x 68 and estimate
+        the size from the clip's first views (:mod:`arstream.pitch_size`,
+        experimental)
     pixel_aspect : a pixel's width over its height: the stream's sample aspect
         ratio by default (1 when it has none); give it for frames resized from
         another shape. The cameras' ``K[1][1] / K[0][0]`` is this aspect
@@ -211,8 +216,24 @@ def process(
     if threads < 0:
         raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
     pitch = _pitch_model(pitch)
-    single = threads == 1
     _load_kernels()
+    run = dict(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, progress=progress, max_frames=max_frames, handle_signals=handle_signals, overlap=overlap, analysis_width=analysis_width, pixel_aspect=pixel_aspect, threads=threads, keep_b_frames=keep_b_frames)
+    first, supports, an, _ = _process_once(input, output, cameras_out, pitch=pitch, **run)
+    if pitch is not None or not _has("arstream.track"):
+        return first
+    from arstream.pitch_size import SCAN_MIN_FRAMES, needs_scan
+
+    if not needs_scan(supports, min_frames=max(5, SCAN_MIN_FRAMES // JUDGE_EVERY)):
+        return first
+    return _rescan(input, output, cameras_out, first, an, run)
+
+
+def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, estimate_pitch: bool = False) -> tuple[Summary, list, Analysis, object]:
+    """One run of :func:`process`: (its summary, the line support of every
+    :data:`JUDGE_EVERY`-th frame (None: no camera), the Analysis it worked
+    at, the tracker's PitchSize or None). ``estimate_pitch``: estimate the
+    size starting from ``pitch``."""
+    single = threads == 1
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
         an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0))
@@ -220,7 +241,7 @@ def process(
         stages = _build(
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -234,9 +255,77 @@ def process(
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
         try:
-            return pipe.run(handle_signals=handle_signals)
+            summary = pipe.run(handle_signals=handle_signals)
         finally:
             _note_pitch(pipe.summary, track_box)
+    return summary, (track_box[0].supports if track_box else []), an, getattr(getattr(track_box[0], "tracker", None), "pitch_size", None) if track_box else None
+
+
+def _aside(path):
+    """A name beside ``path`` for a second run's output (hidden, same extension)."""
+    if path is None:
+        return None
+    path = os.fspath(path)
+    head, tail = os.path.split(path)
+    stem, ext = os.path.splitext(tail)
+    return os.path.join(head, f".{stem}.rescan{ext}")
+
+
+def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict) -> Summary:
+    """The default size fitted the clip poorly: track it at other sizes
+    (:func:`arstream.pipeline.pitch_scan.scan_sizes`) and, when one wins, run
+    the clip again from it, estimating the size within the scan's grid step
+    from the views that size's cameras lay on their paint
+    (:func:`arstream.pitch_size.estimate_pitch_size`: the views are right
+    now, as at 105 x 68 they were not). The second run writes beside the outputs and
+    replaces them only when it completes: stopped by a signal, the first
+    run's complete outputs stay (and :class:`Interrupted` carries its
+    summary). The summary's seconds and CPU seconds are all the runs'."""
+    from arstream.pipeline.pitch_scan import scan_sizes
+    from arstream.pitch_size import PitchSize
+    from geometry.pitch import PitchModel
+
+    default = PitchModel()
+    single = run["threads"] == 1
+    try:
+        scan, scan_s, scan_cpu = scan_sizes(
+            lambda: _open(input, threads=not single),
+            an,
+            detect_stage=lambda st: _overlapped(st, run["overlap"] and not single),
+            max_frames=run["max_frames"],
+            progress=run["progress"],
+            handle_signals=run["handle_signals"],
+            decode_nice=WORKER_NICE,
+        )
+    except Interrupted as e:
+        first.interrupted = e.signum
+        raise Interrupted(e.signum, first) from None
+    if scan.chosen == 0:
+        size = PitchSize(default.length, default.width, source="default", views=scan.frames, scan=scan)
+        first.pitch, first.pitch_text = size.to_dict(), size.describe()
+        first.seconds += scan_s
+        first.cpu_seconds += scan_cpu
+        return first
+    aside = [(_aside(p), p) for p in (output, cameras_out) if p is not None]
+    try:
+        second, _, _, est = _process_once(input, _aside(output), _aside(cameras_out), pitch=PitchModel(*scan.size), estimate_pitch=True, **run)
+    except BaseException as e:
+        for tmp, _ in aside:
+            with contextlib.suppress(OSError):
+                os.remove(tmp)
+        if isinstance(e, Interrupted):
+            first.interrupted = e.signum
+            raise Interrupted(e.signum, first) from None
+        raise
+    for tmp, final in aside:
+        os.replace(tmp, final)
+    second.output = os.fspath(output) if output is not None else None
+    second.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+    size = dataclasses.replace(est, scan=scan) if est is not None and est.source == "estimated" else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
+    second.pitch, second.pitch_text = size.to_dict(), size.describe()
+    second.seconds += first.seconds + scan_s
+    second.cpu_seconds += first.cpu_seconds + scan_cpu
+    return second
 
 
 def _note_pitch(summary: Summary, track_box: list) -> None:

@@ -1,0 +1,190 @@
+"""The pitch's size chosen by line support: a clip tracked again at other
+sizes (issue 29, item 4; the rule is :func:`arstream.pitch_size.choose_size`).
+
+:func:`arstream.pipeline.process` runs a clip at the default 105 x 68 m as
+always. When the frames' paint backs its cameras poorly (median line support
+below :data:`arstream.pitch_size.SCAN_BELOW`), :func:`scan_sizes` decodes
+and detects the clip's first frames once more (at most
+:data:`SCAN_MAX_FRAMES`; twice when a first size wins) and tracks each frame
+with one tracker per size, the default's included, so that the sizes are
+judged on the same frames, detections and tracker; when another size wins,
+``process`` runs the clip again at it.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from arstream.pipeline.runner import Pipeline
+from arstream.pipeline.stage import Item, Stage
+from arstream.pipeline.stages import Analysis, DetectStage
+from arstream.pipeline.summary import Summary
+from arstream.pitch_size import SizeScan, choose_size, grid_neighbours
+from arstream.support import frame_mask, line_support, marking_points
+
+__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "SCAN_MAX_FRAMES"]
+
+#: most frames a scan tracks (a clip's first 30 s at 25 fps: the views of
+#: half a minute of play judge the size as a match's would, and each pass
+#: tracks every frame at up to five sizes)
+SCAN_MAX_FRAMES = 750
+
+
+#: while a scan's tracker is lost, it runs the paint initialiser (0.5-4 s a
+#: call) once in this many seconds of video (the tracker's own default is
+#: every 4 frames): a size that loses the camera is the wrong one, and the
+#: scan's cost is its initialisations
+SCAN_PAINT_SECONDS = 1.0
+
+
+#: frames after which a scan whose default tracker has a camera on fewer
+#: than half of them stops (:attr:`SizeScanStage.gave_up`)
+SCAN_GIVE_UP_FRAMES = 50
+
+
+class _UnlessGaveUp(Stage):
+    """Passes frames on until the scan gave up (no detection after that)."""
+
+    name = "scan"
+
+    def __init__(self, scan: "SizeScanStage"):
+        self.scan = scan
+
+    def process(self, item: Item) -> list[Item]:
+        return [] if self.scan.gave_up else [item]
+
+
+class SizeScanStage(Stage):
+    """Each frame tracked at several pitch sizes, its line support kept per size.
+
+    One :class:`arstream.track.Tracker` per size, causal (``lag`` 0: the
+    scan only judges the sizes, it draws nothing), all fed the same analysis
+    frame and detections; each camera judged by its line support on the
+    frame at its own size.
+
+    Parameters
+    ----------
+    analysis : Analysis of the clip
+    sizes : sequence of (length, width) in metres
+    fps : the clip's frame rate
+    """
+
+    name = "track"
+
+    def __init__(self, analysis: Analysis, sizes, fps: float):
+        from arstream.track import Tracker, TrackerConfig
+        from geometry.pitch import PitchModel
+
+        self.analysis = analysis
+        cfg = TrackerConfig(paint_every=max(1, round(fps * SCAN_PAINT_SECONDS)))
+        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg) for L, W in sizes]
+        self.points = [marking_points(t.pitch) for t in self.trackers]
+        #: per size, each frame's line support (docs/evaluate.md, on the frame at
+        #: its own size; None: no camera)
+        self.supports: list[list] = [[] for _ in sizes]
+
+    @property
+    def gave_up(self) -> bool:
+        """The default size's tracker (the first) has a camera on fewer than
+        half of the first :data:`SCAN_GIVE_UP_FRAMES` frames: it cannot follow
+        this clip, there is no baseline to judge the others by
+        (:func:`arstream.pitch_size.choose_size` keeps the default), and the
+        scan stops tracking."""
+        first = self.supports[0] if self.supports else []
+        if len(first) < SCAN_GIVE_UP_FRAMES:
+            return False
+        return sum(x is not None for x in first[:SCAN_GIVE_UP_FRAMES]) < SCAN_GIVE_UP_FRAMES / 2
+
+    def process(self, item: Item) -> list[Item]:
+        if self.gave_up:
+            return []
+        image = self.analysis.image(item)  # (first: it may make the thumbnail)
+        mask = None
+        for tracker, points, supports in zip(self.trackers, self.points, self.supports):
+            (est,) = tracker.process(item.index, item.pts, image, item.detections, thumbnail=item.thumbnail)
+            if est.camera is None:
+                supports.append(None)
+                continue
+            if mask is None:
+                mask = frame_mask(item.frame)
+            supports.append(line_support(self.analysis.camera(est.camera), mask, points).share)
+        return [item]
+
+
+def track_sizes(source, analysis: Analysis, sizes, *, detect_stage: Callable[[DetectStage], Stage] = lambda st: st, max_frames: int | None = None, progress: Callable | None = None, handle_signals: bool = True, decode_nice: int = 0) -> tuple[list[list], Summary]:
+    """Track the clip's first frames (at most ``max_frames``) at each of ``sizes``.
+
+    Parameters
+    ----------
+    source : an open :class:`arstream.source.VideoSource` at the clip's start
+    analysis : Analysis of the clip (the size the first run analysed at)
+    sizes : sequence of (length, width) in metres
+    detect_stage : wraps the detector's stage (e.g. on a worker thread)
+    max_frames, progress, handle_signals : as for :func:`arstream.pipeline.process`
+    decode_nice : niceness of the decode thread
+
+    Returns
+    -------
+    (per size, each frame's line support or None; the Summary of the run)
+
+    Raises
+    ------
+    Interrupted : stopped by a signal
+    """
+    W, H = source.width, source.height
+    scan = SizeScanStage(analysis, sizes, source.fps)
+    pipe = Pipeline(source, [_UnlessGaveUp(scan), detect_stage(DetectStage(W, H, analysis=analysis)), scan], progress=progress, max_frames=max_frames, decode_nice=decode_nice, prepare=analysis.prepare)
+    return scan.supports, pipe.run(handle_signals=handle_signals)
+
+
+def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float]:
+    """Choose the pitch's size of a clip that fits 105 x 68 poorly.
+
+    The sizes one grid step from 105 x 68 along each axis
+    (:func:`arstream.pitch_size.grid_neighbours`) are tracked with it, on
+    the clip's first frames (at most :data:`SCAN_MAX_FRAMES`); when one of
+    them wins (:func:`arstream.pitch_size.choose_size`), that one's
+    neighbours too, in a second pass (a length and a width both off). The
+    choice is :func:`~arstream.pitch_size.choose_size` over every size
+    tracked: all of them on the same frames by the same causal tracker, so
+    their line supports compare.
+
+    Parameters
+    ----------
+    open_source : callable() -> a context manager giving a fresh
+        :class:`arstream.source.VideoSource` at the clip's start
+    analysis : Analysis of the clip
+    max_frames : frames of the clip the first run processed (None: all)
+    kwargs : as for :func:`track_sizes`
+
+    Returns
+    -------
+    (SizeScan, wall seconds, CPU seconds) of the scan's passes
+
+    Raises
+    ------
+    Interrupted : stopped by a signal
+    """
+    from geometry.pitch import PitchModel
+
+    default = PitchModel()
+    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+    tracked: dict = {}
+    seconds = cpu = 0.0
+    todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
+    for _ in range(2):
+        new = [s for s in todo if s not in tracked]
+        if not new:
+            break
+        with open_source() as src:
+            supports, summary = track_sizes(src, analysis, new, max_frames=limit, **kwargs)
+        tracked.update(zip(new, supports))
+        seconds += summary.seconds
+        cpu += summary.cpu_seconds
+        sizes = list(tracked)
+        pick = choose_size(sizes, [tracked[s] for s in sizes])
+        if pick.chosen == 0:
+            break
+        todo = grid_neighbours(pick.size)
+    sizes = list(tracked)
+    return choose_size(sizes, [tracked[s] for s in sizes]), seconds, cpu
