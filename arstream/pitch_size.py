@@ -202,9 +202,10 @@ class SizeScan:
         return {"sizes": [[float(L), float(W)] for L, W in self.sizes], "median_support": [r(m) for m in self.median], "coverage": [r(c) for c in self.coverage], "frames": self.frames, "chosen": self.chosen}
 
 
-def _median(supports) -> float | None:
+def _median(supports, min_frames: int = SCAN_MIN_FRAMES) -> float | None:
+    """Median of the defined values of ``supports``; None with fewer than ``min_frames``."""
     v = [float(x) for x in supports if x is not None and np.isfinite(x)]
-    return float(np.median(v)) if len(v) >= SCAN_MIN_FRAMES else None
+    return float(np.median(v)) if len(v) >= max(1, int(min_frames)) else None
 
 
 def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES) -> bool:
@@ -212,8 +213,8 @@ def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES) -> bool:
     its median line support (over the frames with a camera; ``supports`` one
     value per judged frame, None for a frame without one) is below
     :data:`SCAN_BELOW`, over at least ``min_frames`` frames."""
-    v = [float(x) for x in supports if x is not None and np.isfinite(x)]
-    return len(v) >= max(1, int(min_frames)) and float(np.median(v)) < SCAN_BELOW
+    m = _median(supports, min_frames)
+    return m is not None and m < SCAN_BELOW
 
 
 def grid_neighbours(size) -> list[tuple[float, float]]:

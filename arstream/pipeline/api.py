@@ -285,7 +285,6 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     from arstream.pitch_size import PitchSize
     from geometry.pitch import PitchModel
 
-    default = PitchModel()
     single = run["threads"] == 1
     try:
         scan, scan_s, scan_cpu = scan_sizes(
@@ -301,7 +300,7 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None
     if scan.chosen == 0:
-        size = PitchSize(default.length, default.width, source="default", views=scan.frames, scan=scan)
+        size = PitchSize(*scan.sizes[0], source="default", views=scan.frames, scan=scan)
         first.pitch, first.pitch_text = size.to_dict(), size.describe()
         first.seconds += scan_s
         first.cpu_seconds += scan_cpu

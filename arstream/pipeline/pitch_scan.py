@@ -172,6 +172,7 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     tracked: dict = {}
     seconds = cpu = 0.0
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
+    pick = None
     for _ in range(2):
         new = [s for s in todo if s not in tracked]
         if not new:
@@ -181,10 +182,8 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
         tracked.update(zip(new, supports))
         seconds += summary.seconds
         cpu += summary.cpu_seconds
-        sizes = list(tracked)
-        pick = choose_size(sizes, [tracked[s] for s in sizes])
+        pick = choose_size(list(tracked), list(tracked.values()))  # (over every size tracked so far)
         if pick.chosen == 0:
             break
         todo = grid_neighbours(pick.size)
-    sizes = list(tracked)
-    return choose_size(sizes, [tracked[s] for s in sizes]), seconds, cpu
+    return pick, seconds, cpu
