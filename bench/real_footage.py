@@ -187,6 +187,15 @@ def _fmt(v, pct=False, nd=2):
     return f"{100 * v:.1f} %" if pct else f"{v:.{nd}f}"
 
 
+def pitch_args(items) -> dict:
+    """``--pitch NAME=LxW`` arguments as ``{name: (length, width)}`` (metres)."""
+    out = {}
+    for p in items:
+        name, size = p.split("=")
+        out[name] = tuple(float(v) for v in size.lower().split("x"))
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sheets", type=Path, help="write contact sheets of overlays into this folder")
@@ -197,10 +206,7 @@ def main(argv=None) -> int:
     if not SHARED.is_dir():
         print(f"skipped: {SHARED} is absent")
         return 0
-    pitches = {}
-    for p in args.pitch:
-        name, size = p.split("=")
-        pitches[name] = tuple(float(v) for v in size.lower().split("x"))
+    pitches = pitch_args(args.pitch)
     if args.sheets:
         args.sheets.mkdir(parents=True, exist_ok=True)
     if not args.no_stills:

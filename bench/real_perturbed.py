@@ -1,0 +1,228 @@
+"""Benchmark: the real clips broadcast otherwise (lower resolution, stronger
+compression), judged frame by frame against the clip's own full-size run.
+
+The shared clips have reference cameras on every 25th frame only. Their
+full-size run is itself within 5 px of those references (12 of 13 on
+``israel_league_wide``, 8 of 8 on ``artificial_turf_multisport`` with its
+pitch size: ``bench/real_footage.py``), so its cameras serve as a
+pseudo-truth for *every* frame of a re-encoded copy of the same clip: the
+copy is the same match through another broadcast chain (scaled with area
+averaging, then libx264 at a given crf). A frame whose camera lies far from
+the full-size run's, where that run is right, is wrong; the table counts
+them, beside the ground-truth-free figures of ``arstream eval --video``.
+
+Usage::
+
+    python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF ...]
+                                   [--frames N] [--pitch NAME=LxW ...] [--keep DIR]
+
+Distances are means over the markings in the full-size camera's view, in
+pixels of a 1280-wide frame (:func:`real_footage.distance_1280`). The
+material is read from ``../shared/data/real-broadcast`` (skipped with a
+message where it is absent).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import time
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from arstream.evaluate_video import evaluate_video  # noqa: E402
+from arstream.pipeline import process  # noqa: E402
+from geometry.camera import Camera  # noqa: E402
+from geometry.pitch import PitchModel  # noqa: E402
+from real_footage import SHARED, _fmt, distance_1280, pitch_args  # noqa: E402
+
+#: the frame rates MPEG-2 can code
+MPEG2_RATES = (Fraction(24000, 1001), Fraction(24), Fraction(25), Fraction(30000, 1001), Fraction(30), Fraction(50), Fraction(60000, 1001), Fraction(60))
+VARIANTS = ["1280x720x28", "1024x576x20", "854x480x12", "854x480x20", "848x478x26"]
+
+
+def _area_weights(n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Integer weights of area averaging from ``n_in`` to ``n_out`` samples
+    (``n_out <= n_in``): input index (K, n_out) and weight (K, n_out) of the
+    at most K input samples each output sample covers, and their sum."""
+    g = math.gcd(n_in, n_out)
+    a, b = n_out // g, n_in // g  # an input sample spans a units, an output sample b
+    K = b // a + 2
+    j = np.arange(n_out)
+    first = (b * j) // a
+    idx = first[None, :] + np.arange(K)[:, None]
+    lo = np.maximum(a * idx, b * j[None, :])
+    hi = np.minimum(a * (idx + 1), b * (j[None, :] + 1))
+    w = np.clip(hi - lo, 0, None)
+    return np.minimum(idx, n_in - 1), w, b
+
+
+def area_scale(plane: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """(H, W) uint8 plane scaled down to ``size`` (w, h) by area averaging,
+    rounded half up: exact integer arithmetic, the same on every processor."""
+    h_in, w_in = plane.shape
+    w, h = size
+    if w > w_in or h > h_in:
+        raise ValueError(f"area_scale only scales down: {w_in} x {h_in} -> {w} x {h}")
+    ix, wx, bx = _area_weights(w_in, w)
+    iy, wy, by = _area_weights(h_in, h)
+    x = plane.astype(np.int64)
+    cols = sum(x[:, ix[k]] * wx[k] for k in range(len(ix)))  # (h_in, w)
+    both = sum(cols[iy[k], :] * wy[k][:, None] for k in range(len(iy)))  # (h, w)
+    d = bx * by
+    return ((both + d // 2) // d).astype(np.uint8)
+
+
+def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264") -> Path:
+    """``frames`` frames of ``src`` (all with None) from frame ``start`` on,
+    scaled to ``size`` (area averaging, :func:`area_scale`) and encoded with
+    ``codec`` at ``quality`` (libx264's crf, or with ``"mpeg2video"``, the
+    codec of SD broadcasts, its bit rate in kbit/s): another broadcast of
+    the same match. Returns ``dst``.
+
+    The scaling is exact integer arithmetic on the decoded planes, the same
+    on every processor (FFmpeg's swscale, PyAV's ``reformat``, and OpenCV's
+    ``INTER_AREA`` round differently with their AVX-512, AVX2 and SSE
+    kernels). FFmpeg's MPEG-2 encoder on one thread with ``bitexact`` makes
+    the same bytes on every run; libx264 here does not (a busy machine, or
+    its thread count, changes a few macroblocks), and the tracker can answer
+    such a difference with other cameras (docs/real-footage.md): a test
+    that needs one copy uses MPEG-2.
+
+    Raises
+    ------
+    ValueError
+        ``src`` is not 4:2:0 8-bit, ``size`` is not even, or ``codec`` is
+        neither.
+    """
+    import av
+
+    w, h = size
+    if w % 2 or h % 2:
+        raise ValueError(f"size must be even, got {w} x {h}")
+    if codec == "libx264":
+        options = {"crf": str(quality), "preset": "fast"}
+    elif codec == "mpeg2video":
+        options = {"b": f"{int(quality)}k", "threads": "1", "flags": "+bitexact"}
+    else:
+        raise ValueError(f"codec must be libx264 or mpeg2video, got {codec!r}")
+    with av.open(str(src)) as inp, av.open(str(dst), "w") as out:
+        vs = inp.streams.video[0]
+        rate = vs.average_rate
+        if codec == "mpeg2video":  # (its frame rates are the broadcast ones)
+            rate = min(MPEG2_RATES, key=lambda r: abs(float(r) - float(rate)))
+        st = out.add_stream(codec, rate=rate)
+        st.width, st.height, st.pix_fmt = w, h, "yuv420p"
+        st.options = options
+        for k, frame in enumerate(inp.decode(vs)):
+            if k < start:
+                continue
+            if frames is not None and k >= start + frames:
+                break
+            if frame.format.name not in ("yuv420p", "yuvj420p"):
+                raise ValueError(f"{src}: frames are {frame.format.name}, not 4:2:0 8-bit")
+            W, H = frame.width, frame.height
+            flat = frame.to_ndarray().ravel()  # (Y, U, V planes one after another)
+            n, c = W * H, (W // 2) * (H // 2)
+            planes = [flat[:n].reshape(H, W), flat[n : n + c].reshape(H // 2, W // 2), flat[n + c : n + 2 * c].reshape(H // 2, W // 2)]
+            scaled = [area_scale(p, (w, h) if i == 0 else (w // 2, h // 2)) for i, p in enumerate(planes)]
+            g = av.VideoFrame.from_ndarray(np.concatenate([q.ravel() for q in scaled]).reshape(-1, w), format="yuv420p")
+            for packet in st.encode(g):
+                out.mux(packet)
+        for packet in st.encode():
+            out.mux(packet)
+    return dst
+
+
+def _cameras(path: Path) -> list[Camera | None]:
+    out = []
+    for line in path.read_text().splitlines():
+        r = json.loads(line)
+        out.append(None if r.get("K") is None else Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ())))
+    return out
+
+
+def distances(truth: list[Camera | None], got: list[Camera | None], size: tuple[int, int], pitch: PitchModel) -> np.ndarray:
+    """(N,) per-frame distance (px @1280) of ``got`` (cameras of a ``size``
+    frame) to ``truth`` (cameras of the 1280 x 720 full-size frame); NaN where
+    either has none."""
+    S = np.diag([1280.0 / size[0], 720.0 / size[1], 1.0])
+    d = np.full(min(len(truth), len(got)), np.nan)
+    for k in range(len(d)):
+        a, b = truth[k], got[k]
+        if a is not None and b is not None:
+            d[k] = distance_1280(a, Camera(K=S @ b.K, R=b.R, t=b.t, dist=b.dist), (1280, 720), pitch)
+    return d
+
+
+def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dict]:
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = keep or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        for name in clips:
+            src = SHARED / "clips" / f"{name}.mp4"
+            pitch = pitches.get(name)
+            full = work / f"{name}_full.jsonl"
+            t0 = time.perf_counter()
+            s = process(src, cameras_out=full, handle_signals=False, pitch=pitch)
+            used = PitchModel(s.pitch["length"], s.pitch["width"]) if s.pitch else PitchModel()
+            truth = _cameras(full)
+            rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, [json.loads(x) for x in full.read_text().splitlines()], pitch=used)))
+            for v in variants:
+                w, h, crf = (int(x) for x in v.split("x"))
+                for start in starts:
+                    if start >= len(truth) - 25:
+                        continue
+                    stem = f"{name}_{w}x{h}_crf{crf}_from{start}"
+                    clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start)
+                    out = work / f"{stem}.jsonl"
+                    t0 = time.perf_counter()
+                    process(clip, cameras_out=out, handle_signals=False, pitch=(used.length, used.width))
+                    dt = time.perf_counter() - t0
+                    recs = [json.loads(x) for x in out.read_text().splitlines()]
+                    d = distances(truth[start:], _cameras(out), (w, h), used)
+                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}", start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=used), dist=d[np.isfinite(d)], frames=len(d)))
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--clips", nargs="+", default=["israel_league_wide"])
+    ap.add_argument("--variants", nargs="+", default=VARIANTS, help="WxHxCRF")
+    ap.add_argument("--starts", nargs="+", type=int, default=[0, 60, 120], help="each variant from these frames of the clip on (other starting conditions)")
+    ap.add_argument("--frames", type=int, default=None, help="at most N frames from each start")
+    ap.add_argument("--pitch", action="append", default=[], help="NAME=LxW: the pitch size of a clip (given to every run of it)")
+    ap.add_argument("--keep", type=Path, default=None, help="keep the re-encoded clips and cameras here")
+    args = ap.parse_args(argv)
+    if not SHARED.exists():
+        print(f"skipped: {SHARED} is absent")
+        return 0
+    rows = run(args.clips, args.variants, args.starts, args.frames, pitch_args(args.pitch), args.keep)
+    print("| clip | broadcast | from frame | frames with a camera | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | distance to full size: median | p90 | frames > 5 px | frames > 20 px | fps |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        s, d = r["score"], r.get("dist")
+        far = ("n/a",) * 4 if d is None or not len(d) else (_fmt(float(np.median(d))), _fmt(float(np.percentile(d, 90))), _fmt(float(np.mean(d > 5)), pct=True), _fmt(float(np.mean(d > 20)), pct=True))
+        print(f"| {r['clip']} | {r['variant']} | {r['start']} | {_fmt(s.coverage, pct=True)} | {_fmt(s.support_median)} | {_fmt(s.support_ge_0_7, pct=True)} | {s.drawn_below_0_5} | {_fmt(s.jitter_1280)} | {' | '.join(far)} | {s.frames / r['seconds']:.1f} |")
+    runs = [r for r in rows if r.get("dist") is not None]
+    if runs:
+        # over every re-encoded run: the share of its frames with a camera within / beyond the bounds
+        within5 = np.mean([np.sum(r["dist"] <= 5) / r["frames"] for r in runs])
+        beyond20 = np.mean([np.sum(r["dist"] > 20) / r["frames"] for r in runs])
+        cover = np.mean([r["score"].coverage for r in runs])
+        print(f"\n{len(runs)} re-encoded runs: on average {100 * cover:.1f} % of their frames with a camera, {100 * within5:.1f} % with one within 5 px of the full-size run's, {100 * beyond20:.1f} % with one beyond 20 px")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

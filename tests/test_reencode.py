@@ -1,0 +1,78 @@
+"""bench/real_perturbed.py's re-encoding: area averaging in exact integer
+arithmetic (the same on every processor), checked against its definition
+and against OpenCV's INTER_AREA; the MPEG-2 copy the same bytes every run."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+
+from real_perturbed import _area_weights, area_scale, reencode  # noqa: E402
+
+
+@pytest.mark.parametrize("n_in, n_out", [(1280, 848), (720, 478), (640, 424), (360, 239), (7, 3), (10, 10), (9, 3)])
+def test_area_weights_cover_each_output_sample_once(n_in, n_out):
+    # every output sample averages exactly its span of the input: the
+    # weights (in units of 1 / (n_in n_out / gcd) of a sample) sum to the
+    # output sample's span, and every input sample is used in full
+    idx, w, total = _area_weights(n_in, n_out)
+    assert np.all(w.sum(axis=0) == total)
+    used = np.bincount(idx.ravel(), weights=w.ravel(), minlength=n_in)
+    np.testing.assert_array_equal(used, np.full(n_in, total * n_out // n_in))
+
+
+def test_area_scale_is_the_mean_over_each_span():
+    rng = np.random.default_rng(5)
+    p = rng.integers(0, 256, (6, 9)).astype(np.uint8)
+    # 9 -> 3 and 6 -> 2: 3 x 3 blocks, the mean rounded half up
+    want = np.floor(p.reshape(2, 3, 3, 3).astype(np.float64).mean(axis=(1, 3)) + 0.5).astype(np.uint8)
+    np.testing.assert_array_equal(area_scale(p, (3, 2)), want)
+    np.testing.assert_array_equal(area_scale(np.full((720, 1280), 77, np.uint8), (848, 478)), 77)
+    with pytest.raises(ValueError, match="only scales down"):
+        area_scale(p, (10, 6))
+
+
+def test_area_scale_matches_opencv_within_its_rounding():
+    # OpenCV's INTER_AREA computes in float (and its kernels round
+    # differently): within one level of the exact mean
+    rng = np.random.default_rng(6)
+    p = rng.integers(0, 256, (720, 1280)).astype(np.uint8)
+    for size in ((848, 478), (640, 360), (1024, 576)):
+        d = np.abs(area_scale(p, size).astype(int) - cv2.resize(p, size, interpolation=cv2.INTER_AREA).astype(int))
+        assert d.max() <= 1, size
+
+
+def test_reencode_to_mpeg2_makes_the_same_bytes_twice(tmp_path):
+    import av
+
+    src = tmp_path / "src.mp4"
+    rng = np.random.default_rng(7)
+    with av.open(str(src), "w") as out:
+        st = out.add_stream("libx264", rate=25)
+        st.width, st.height, st.pix_fmt = 64, 48, "yuv420p"
+        for _ in range(6):
+            img = rng.integers(0, 256, (48, 64, 3)).astype(np.uint8)
+            for packet in st.encode(av.VideoFrame.from_ndarray(img, format="bgr24")):
+                out.mux(packet)
+        for packet in st.encode():
+            out.mux(packet)
+    a = reencode(src, tmp_path / "a.mpg", (32, 24), 500, 4, start=1, codec="mpeg2video").read_bytes()
+    b = reencode(src, tmp_path / "b.mpg", (32, 24), 500, 4, start=1, codec="mpeg2video").read_bytes()
+    assert a == b
+    for name, codec, quality in (("a.mpg", "mpeg2video", 500), ("x.mp4", "libx264", 20)):
+        if codec == "libx264":
+            reencode(src, tmp_path / name, (32, 24), quality, 4, start=1)
+        with av.open(str(tmp_path / name)) as c:
+            frames = [f for f in c.decode(video=0)]
+        assert len(frames) == 4 and (frames[0].width, frames[0].height) == (32, 24), name
+    with pytest.raises(ValueError, match="even"):
+        reencode(src, tmp_path / "c.mp4", (31, 24), 20)
+    with pytest.raises(ValueError, match="libx264 or mpeg2video"):
+        reencode(src, tmp_path / "d.mp4", (32, 24), 20, codec="vp9")
