@@ -7,7 +7,7 @@ full-size run is itself within 5 px of those references (12 of 13 on
 pitch size: ``bench/real_footage.py``), so its cameras serve as a
 pseudo-truth for *every* frame of a re-encoded copy of the same clip: the
 copy is the same match through another broadcast chain (scaled with area
-averaging, then libx264 at a given crf). A frame whose camera lies far from
+averaging, then libx264 at a given crf; :func:`reencode`). A frame whose camera lies far from
 the full-size run's, where that run is right, is wrong; the table counts
 them, beside the ground-truth-free figures of ``arstream eval --video``.
 
@@ -41,8 +41,10 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from arstream.evaluate_video import evaluate_video  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
+from arstream.source import i420_planes  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
+from encoder_reproducibility import capabilities  # noqa: E402
 from real_footage import SHARED, _fmt, distance_1280, pitch_args  # noqa: E402
 
 #: the frame rates MPEG-2 can code
@@ -89,14 +91,15 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
     codec of SD broadcasts, its bit rate in kbit/s): another broadcast of
     the same match. Returns ``dst``.
 
-    The scaling is exact integer arithmetic on the decoded planes, the same
-    on every processor (FFmpeg's swscale, PyAV's ``reformat``, and OpenCV's
-    ``INTER_AREA`` round differently with their AVX-512, AVX2 and SSE
-    kernels). FFmpeg's MPEG-2 encoder on one thread with ``bitexact`` makes
-    the same bytes on every run; libx264 here does not (a busy machine, or
-    its thread count, changes a few macroblocks), and the tracker can answer
-    such a difference with other cameras (docs/real-footage.md): a test
-    that needs one copy uses MPEG-2.
+    The same bytes on every run: the scaling is exact integer arithmetic on
+    the decoded planes, the same on every processor (FFmpeg's swscale,
+    PyAV's ``reformat``, and OpenCV's ``INTER_AREA`` round differently with
+    their AVX-512, AVX2 and SSE kernels); libx264 runs without its AVX-512
+    code, which at some frame sizes (848 x 478 and 854 x 480 among them)
+    reads memory it never wrote (bench/README.md, "Reproducible encodes");
+    FFmpeg's MPEG-2 encoder runs on one thread with ``bitexact``. The
+    tracker answers a copy a level off here and there with other cameras
+    (docs/real-footage.md).
 
     Raises
     ------
@@ -110,7 +113,10 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
     if w % 2 or h % 2:
         raise ValueError(f"size must be even, got {w} x {h}")
     if codec == "libx264":
-        options = {"crf": str(quality), "preset": "fast"}
+        # (without its AVX-512 code, which at some frame sizes reads memory it
+        # never wrote: bench/README.md, "Reproducible encodes")
+        asm = ",".join(c for c in capabilities() if not c.upper().startswith("AVX512"))
+        options = {"crf": str(quality), "preset": "fast", "x264-params": f"asm={asm}"}
     elif codec == "mpeg2video":
         options = {"b": f"{int(quality)}k", "threads": "1", "flags": "+bitexact"}
     else:
@@ -130,10 +136,7 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
                 break
             if frame.format.name not in ("yuv420p", "yuvj420p"):
                 raise ValueError(f"{src}: frames are {frame.format.name}, not 4:2:0 8-bit")
-            W, H = frame.width, frame.height
-            flat = frame.to_ndarray().ravel()  # (Y, U, V planes one after another)
-            n, c = W * H, (W // 2) * (H // 2)
-            planes = [flat[:n].reshape(H, W), flat[n : n + c].reshape(H // 2, W // 2), flat[n + c : n + 2 * c].reshape(H // 2, W // 2)]
+            planes = i420_planes(frame.to_ndarray(), frame.width, frame.height)
             scaled = [area_scale(p, (w, h) if i == 0 else (w // 2, h // 2)) for i, p in enumerate(planes)]
             g = av.VideoFrame.from_ndarray(np.concatenate([q.ravel() for q in scaled]).reshape(-1, w), format="yuv420p")
             for packet in st.encode(g):
@@ -143,12 +146,9 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
     return dst
 
 
-def _cameras(path: Path) -> list[Camera | None]:
-    out = []
-    for line in path.read_text().splitlines():
-        r = json.loads(line)
-        out.append(None if r.get("K") is None else Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ())))
-    return out
+def _cameras(records: list[dict]) -> list[Camera | None]:
+    """The camera of each cameras.jsonl record (None where lost)."""
+    return [None if r.get("K") is None else Camera.from_dict(r) for r in records]
 
 
 def distances(truth: list[Camera | None], got: list[Camera | None], size: tuple[int, int], pitch: PitchModel) -> np.ndarray:
@@ -176,8 +176,9 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dic
             t0 = time.perf_counter()
             s = process(src, cameras_out=full, handle_signals=False, pitch=pitch)
             used = PitchModel(s.pitch["length"], s.pitch["width"]) if s.pitch else PitchModel()
-            truth = _cameras(full)
-            rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, [json.loads(x) for x in full.read_text().splitlines()], pitch=used)))
+            records = [json.loads(x) for x in full.read_text().splitlines()]
+            truth = _cameras(records)
+            rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, records, pitch=used)))
             for v in variants:
                 w, h, crf = (int(x) for x in v.split("x"))
                 for start in starts:
@@ -190,7 +191,7 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dic
                     process(clip, cameras_out=out, handle_signals=False, pitch=(used.length, used.width))
                     dt = time.perf_counter() - t0
                     recs = [json.loads(x) for x in out.read_text().splitlines()]
-                    d = distances(truth[start:], _cameras(out), (w, h), used)
+                    d = distances(truth[start:], _cameras(recs), (w, h), used)
                     rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}", start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=used), dist=d[np.isfinite(d)], frames=len(d)))
     return rows
 

@@ -1,6 +1,6 @@
 """bench/real_perturbed.py's re-encoding: area averaging in exact integer
 arithmetic (the same on every processor), checked against its definition
-and against OpenCV's INTER_AREA; the MPEG-2 copy the same bytes every run."""
+and against OpenCV's INTER_AREA; the copies the same bytes every run."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_area_scale_matches_opencv_within_its_rounding():
         assert d.max() <= 1, size
 
 
-def test_reencode_to_mpeg2_makes_the_same_bytes_twice(tmp_path):
+def test_reencode_makes_the_same_bytes_twice(tmp_path):
     import av
 
     src = tmp_path / "src.mp4"
@@ -66,9 +66,11 @@ def test_reencode_to_mpeg2_makes_the_same_bytes_twice(tmp_path):
     a = reencode(src, tmp_path / "a.mpg", (32, 24), 500, 4, start=1, codec="mpeg2video").read_bytes()
     b = reencode(src, tmp_path / "b.mpg", (32, 24), 500, 4, start=1, codec="mpeg2video").read_bytes()
     assert a == b
-    for name, codec, quality in (("a.mpg", "mpeg2video", 500), ("x.mp4", "libx264", 20)):
-        if codec == "libx264":
-            reencode(src, tmp_path / name, (32, 24), quality, 4, start=1)
+    # libx264 without its AVX-512 code (which reads memory it never wrote at
+    # some frame sizes): the same bytes too
+    x = reencode(src, tmp_path / "x.mp4", (32, 24), 20, 4, start=1).read_bytes()
+    assert x == reencode(src, tmp_path / "y.mp4", (32, 24), 20, 4, start=1).read_bytes()
+    for name in ("a.mpg", "x.mp4"):
         with av.open(str(tmp_path / name)) as c:
             frames = [f for f in c.decode(video=0)]
         assert len(frames) == 4 and (frames[0].width, frames[0].height) == (32, 24), name
