@@ -95,8 +95,9 @@ def test_israel_league_wide_at_480p(tmp_path):
     # penalty area) as an 848 x 478 MPEG-2 broadcast at 1.5 Mbit/s, analysed
     # at its own size (Analysis's MIN_REDUCTION). The copy is the same bytes
     # on every machine and run (bench/real_perturbed.py's reencode): the
-    # earlier copy, scaled by swscale and encoded by libx264, differed with
-    # the processor and the machine's load, and the tracker's answer with it
+    # earlier copy, scaled by swscale and encoded by libx264 with its AVX-512
+    # code, differed with the processor and from run to run, and the
+    # tracker's answer with it
     # (89.5 to 97 % of the frames at >= 0.7 on copies a level apart here and
     # there: docs/real-footage.md, "The same clips through other broadcast
     # chains"). On this copy, 2026-11-28: a camera on 100 % of the frames,
