@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible
-from arstream.support import backed_support, backs, line_support, marking_points, marking_spread, white_mask
+from arstream.support import ON_GRASS, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
@@ -149,13 +149,15 @@ class PaintView:
     points : (M, 2) float64, the paint pixels (frame pixels; every other row and
         column above 1000 px wide)
     bright : (H, W) bool, the white-paint support mask of the frame (:func:`arstream.support.white_mask`)
+    grass : (h, w) bool or None, the grass region (:func:`arstream.support.grass_region`
+        of the detector's small grass mask; None without one)
     index : LineIndex over ``points`` (made on first access)
     lines : list of DetectedLine, the paint's straight lines, most support
         first (found on first access: tracking needs only the pixels)
     """
 
-    def __init__(self, image: np.ndarray, mask: np.ndarray, points: np.ndarray, bright: np.ndarray):
-        self.image, self.mask, self.points, self.bright = image, mask, points, bright
+    def __init__(self, image: np.ndarray, mask: np.ndarray, points: np.ndarray, bright: np.ndarray, grass: np.ndarray | None = None):
+        self.image, self.mask, self.points, self.bright, self.grass = image, mask, points, bright, grass
         self._lines: list | None = None
         self._index: LineIndex | None = None
 
@@ -173,18 +175,19 @@ class PaintView:
 
 
 def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
-    """The paint mask and its pixels, and the white-paint support mask (with
-    ``reach``, :func:`arstream.support.white_mask`) of one BGR frame (the pitch
-    region from ``detections``)."""
+    """The paint mask and its pixels, the white-paint support mask (with
+    ``reach``, :func:`arstream.support.white_mask`) and the grass region of
+    one BGR frame (the pitch region from ``detections``)."""
     H, W = image.shape[:2]
     region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
     mask = paint_mask(image, region)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
-    return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach))
+    small = getattr(detections, "grass_small", None) if detections is not None else None
+    return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=()) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -197,8 +200,11 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     line support on white paint (:func:`arstream.support.line_support`) plus
     :data:`RECALL_WEIGHT` times the share of the paint it explains wins. ``lines``: the
     detector's straight lines (DetectedLine), tried as the halfway line
-    before the paint's. Returns (refinement, its support), or (None, None)
-    when no hypothesis was found.
+    before the paint's. ``min_on_grass``: with the frame's grass known
+    (``view.grass``), a hypothesis with a smaller share of its markings in
+    view on the grass (:func:`arstream.support.on_grass`) is left out (a
+    still: :func:`register_frame`). Returns (refinement, its support), or
+    (None, None) when no hypothesis was found.
     """
     W, H = size
     r = max(2, int(round(2.5 * W / 1280)))
@@ -228,6 +234,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
             continue  # the refinement left the cameras a broadcast can have (one marking along one line)
         if marking_spread(rf.camera, view.bright, pitch)[0] < MIN_MARKINGS:
             continue  # too little in view to be judged: a piece of one marking on a line fits anywhere
+        if min_on_grass is not None and view.grass is not None and (on_grass(rf.camera, view.grass, size, pitch) or 1.0) < min_on_grass:
+            continue  # markings off the grass: a member of a long lens's depth-zoom family too far away
         score = s0 + RECALL_WEIGHT * explained_share(rf.camera, view.index, size, model, radius=2.5)
         if score > best_score:
             best, best_s, best_score = rf, s0, score
@@ -354,21 +362,25 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     sup = None
     if image is not None:
         # (a still must show enough markings to be judged: an undefined support is no backing)
-        def backed(sup, spread):
-            return sup is not None and backs(sup, spread, min_support)
+        def backed(cam, sup, spread):
+            # (and its markings on the grass: a long lens's camera too far away
+            # lays the far touchline on the stands, whose seats back it)
+            return sup is not None and backs(sup, spread, min_support) and (view.grass is None or (on_grass(cam, view.grass, size, pitch) or 1.0) >= ON_GRASS)
 
         view = paint_view(image, detections)
         sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
-        if not backed(sup, spread) or sup < PAINT_CHECK:
+        if r is None or not backed(r.camera, sup, spread) or sup < PAINT_CHECK:
             # (a backed camera from the detector's lines that still leaves much of
             # the paint off its markings: the paint's own may do better)
-            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines)
+            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
-                if r is None or (backed(sp, spread_p) and not backed(sup, spread)) or (sp or 0.0) > (sup or 0.0) + 0.02:
+                if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or (sp or 0.0) > (sup or 0.0) + 0.02:
                     r, sup, spread = rp, sp, spread_p
-        if r is not None and not backed(sup, spread):
-            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {spread:.0%} of its markings in view on paint)")
+        if r is not None and not backed(r.camera, sup, spread):
+            g = None if view.grass is None else on_grass(r.camera, view.grass, size, pitch)
+            why = f"{g:.0%} of its markings in view on the grass" if g is not None and g < ON_GRASS and sup is not None and backs(sup, spread, min_support) else f"{spread:.0%} of its markings in view on paint"
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
     info = {"rms": r.rms, "n_visible": r.n_visible}

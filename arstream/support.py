@@ -84,6 +84,10 @@ __all__ = [
     "backs",
     "pixel_support",
     "line_support",
+    "ON_GRASS",
+    "GRASS_REACH",
+    "grass_region",
+    "on_grass",
     "jitter_proxy",
 ]
 
@@ -97,6 +101,12 @@ REACH = 2
 SPACING = 0.25
 #: least marking points inside the image for the support to be defined
 MIN_POINTS = 50
+#: least share of a camera's marking points in view that lie on the pitch's
+#: grass (:func:`on_grass`) for the run-time test to accept it
+ON_GRASS = 0.8
+#: how far the grass region reaches beyond the grass mask, as a share of the
+#: frame's width (:func:`grass_region`)
+GRASS_REACH = 0.01
 
 
 @dataclass(frozen=True)
@@ -364,6 +374,72 @@ def line_support(camera: Camera, mask: np.ndarray, points: np.ndarray | None = N
     if points is None:
         points = marking_points()
     return pixel_support(camera.project(points), mask, min_points=min_points)
+
+
+def grass_region(grass: np.ndarray, reach: float = GRASS_REACH) -> np.ndarray:
+    """The pitch's grass grown by ``reach`` times its width (an ellipse's
+    dilation): where a marking may be (:func:`on_grass`).
+
+    Every marking is painted on the grass, but the grass mask
+    (:mod:`arstream.detect.grass`) is coarse (made about 160 px wide) and can
+    miss a strip of darker grass under floodlights along the far touchline, so
+    it is grown.
+
+    Parameters
+    ----------
+    grass : (h, w) uint8 or bool, non-zero on grass (any size: the frame's, or
+        the detector's small copy)
+    reach : share of ``w``
+
+    Returns
+    -------
+    (h, w) bool
+    """
+    g = np.asarray(grass)
+    if g.ndim != 2:
+        raise ValueError(f"grass must be (h, w), got shape {g.shape}")
+    r = max(1, int(round(reach * g.shape[1])))
+    return cv2.dilate((g > 0).astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0
+
+
+def on_grass(camera: Camera, region: np.ndarray, size: tuple[int, int], pitch: PitchModel | None = None, *, spacing: float = 0.5) -> float | None:
+    """Share of a camera's marking points in view that lie on the grass.
+
+    A view of a distant part of the pitch through a long lens fits a family of
+    cameras along its line of sight (focal length and distance together):
+    each lays the markings near the middle of the view on their paint, and a
+    member too far away lays the far touchline up in the stands or on the
+    boards, where the bright seats and adverts back it as well as paint would
+    (its line support can be higher than the right camera's). The grass
+    tells them apart: every marking lies on it.
+
+    Parameters
+    ----------
+    camera : Camera of a frame of ``size``
+    region : (h, w) bool, :func:`grass_region` of the frame's grass mask (any
+        size with the frame's aspect: the points are scaled to it)
+    size : (W, H) of the frame, pixels
+    pitch : PitchModel (default 105 x 68)
+    spacing : metres between marking points
+
+    Returns
+    -------
+    float in [0, 1], or None with fewer marking points in view than the line
+    support needs (:data:`MIN_POINTS` at 0.25 m, scaled with ``spacing``)
+    """
+    pitch = pitch or PitchModel()
+    W, H = size
+    h, w = region.shape
+    X = _marking_points(pitch.length, pitch.width, pitch.line_width, float(spacing))
+    uv = camera.project(X)
+    with np.errstate(invalid="ignore"):
+        q = np.floor(uv + 0.5)  # (the frame's pixel a point lands on: NaN fails the test)
+        inside = (q[:, 0] >= 0) & (q[:, 0] < W) & (q[:, 1] >= 0) & (q[:, 1] < H)
+    ij = np.minimum((q[inside] * np.array([w / W, h / H])).astype(np.intp), [w - 1, h - 1])
+    n = len(ij)
+    if n < max(1, MIN_POINTS * SPACING / float(spacing)):
+        return None
+    return float(np.count_nonzero(region[ij[:, 1], ij[:, 0]])) / n
 
 
 def jitter_proxy(cameras: Sequence[Camera | None], size: tuple[int, int]) -> Jitter:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from cameras import looking_at
+from cameras import grass_seen, looking_at
 from scipy.spatial import cKDTree
 
 from arstream.detect import detect
@@ -92,6 +92,32 @@ def test_the_family_fits_the_arc_at_every_focal_length_and_the_far_touchline_tel
             assert off(c, touchline).max() < 0.1
         else:
             assert np.median(off(c, touchline)) > 5.0, (f, np.median(off(c, touchline)))
+
+
+def test_the_grass_tells_a_member_too_far_back_whose_far_markings_the_stands_back():
+    # a member of the family 1.6 times too far lays its far touchline and
+    # penalty area up in the stands; where the frame's bright pixels are the
+    # markings and every pixel off the grass (seats and boards, at their
+    # brightest), its line support rises from 0.22 to 0.66 while the right
+    # camera's stays 1.0, but its markings leave the grass (0.56 of them on
+    # it; the member 1.25 times too far, 0.86, lays few on paint: 0.17)
+    from arstream.support import ON_GRASS, grass_region, line_support, marking_points, on_grass
+
+    cam = _low_far_camera()
+    E, lh, arc, half = _exact_primitives(cam)
+    (far,) = cameras_along_circle(E, lh, arc, half, cam.principal_point, image_width=SIZE[0], focals=[1.6 * cam.focal])
+    W, H = SIZE
+    uv = np.floor(cam.project(marking_points()) + 0.5)
+    q = uv[_in_view(uv, SIZE)].astype(int)
+    paint = np.zeros((H, W), np.uint8)
+    paint[q[:, 1], q[:, 0]] = 1
+    paint = cv2.dilate(paint, np.ones((5, 5), np.uint8)) > 0  # (the support's 2 px reach)
+    grass = grass_seen(cam, SIZE)
+    stands = cv2.resize(grass, SIZE, interpolation=cv2.INTER_NEAREST) == 0
+    assert line_support(cam, paint | stands).share == 1.0 and line_support(far, paint).share < 0.3
+    assert line_support(far, paint | stands).share > 0.6
+    region = grass_region(grass)
+    assert on_grass(cam, region, SIZE) == 1.0 and on_grass(far, region, SIZE) < ON_GRASS
 
 
 def test_cameras_along_circle_bad_input():

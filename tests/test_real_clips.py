@@ -102,8 +102,12 @@ def test_israel_league_wide_at_480p(tmp_path):
     # there: docs/real-footage.md, "The same clips through other broadcast
     # chains"). On this copy, 2026-11-28: a camera on 100 % of the frames,
     # support median 0.94, none drawn below 0.5, but 78 % of the frames at
-    # >= 0.7 against the target's 90 % (after the whip pan the tracked
-    # cameras sit a few pixels off the faint far lines): held at 75 %.
+    # >= 0.7 against the target's 90 %: held at 75 %. The frames below are
+    # 26-80, the centre-circle view before the whip pan, where the far
+    # touchline's paint is lost at this size and the full-size run's own
+    # camera lays it on the bright edge of the grass, 5-10 px beyond its
+    # paint (docs/real-footage.md, "The same clips through other broadcast
+    # chains"; no reference cameras there to judge either by).
     # Jitter not held (3.4 px)
     clip = reencode(SHARED / "clips" / "israel_league_wide.mp4", tmp_path / "israel_480p.mpg", (848, 478), 1500, 200, codec="mpeg2video")
     out = tmp_path / "cameras.jsonl"
@@ -115,6 +119,52 @@ def test_israel_league_wide_at_480p(tmp_path):
     assert score.support_median >= 0.8 and score.support_ge_0_7 >= 0.75, score
     assert score.drawn_below_0_5 == 0, score
 
+
+def test_a_480p_still_keeps_its_markings_on_the_grass(tmp_path):
+    # frame 25 of the 480p MPEG-2 copy: the centre circle, the halfway line and
+    # the far-left penalty area's corner through a long lens. Of the paint
+    # initialiser's hypotheses, a member of the view's depth-zoom family twice
+    # too far away (f 6150 px against about 2770 at 848 wide) lays the circle
+    # and the halfway line on their paint and the far touchline on the stands,
+    # whose seats back it: line support 0.94 against the right member's 0.73
+    # (the far touchline's paint is lost at this size), and it was picked
+    # (150 px from the full-size frame's camera). 30 % of its markings in view
+    # are off the grass (arstream.support.on_grass): ``register`` leaves it out
+    import av
+    import cv2
+
+    from arstream.detect import Detector
+    from arstream.initialise import initialise_from_paint, paint_view, register_frame
+    from arstream.support import ON_GRASS
+    from geometry.camera import Camera
+
+    clip = reencode(SHARED / "clips" / "israel_league_wide.mp4", tmp_path / "israel_480p.mpg", (848, 478), 1500, 26, codec="mpeg2video")
+    det = None
+    with av.open(str(clip)) as c:
+        for k, frame in enumerate(c.decode(video=0)):
+            img = frame.to_ndarray(format="bgr24")
+            det = det or Detector(848, 478)
+            d = det.process(img)  # (the grass model learns the clip's grass frame by frame)
+    assert k == 25
+    view = paint_view(img, d)
+    pp = np.array([423.5, 238.5])
+    loose, _ = initialise_from_paint(view, (848, 478), principal_point=pp, pitch=PitchModel(), circles=d.ellipses, lines=d.lines)
+    kept, sup = initialise_from_paint(view, (848, 478), principal_point=pp, pitch=PitchModel(), circles=d.ellipses, lines=d.lines, min_on_grass=ON_GRASS)
+    est = register_frame(d, (848, 478), image=img)
+    assert kept is not None and sup >= 0.7 and est.status == "ok", (sup, est.info)
+    out = tmp_path / "full.jsonl"
+    process(SHARED / "clips" / "israel_league_wide.mp4", cameras_out=out, max_frames=26, handle_signals=False)
+    full = Camera.from_dict(json.loads(out.read_text().splitlines()[25]))
+    S = np.diag([1280 / 848, 720 / 478, 1.0])
+
+    def off(cam):
+        return _distance_1280(full, Camera(K=S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist), (1280, 720), PitchModel())
+
+    # the full-size run is itself 5-10 px off here (its far touchline on the
+    # bright edge of the grass: docs/real-footage.md), and these are single
+    # 480p frames, before any tracking: 20.6 px (the paint initialiser's)
+    d_loose, d_kept, d_still = off(loose.camera), off(kept.camera), off(est.camera)
+    assert d_loose > 100 and d_kept < 40 and d_still < 40, (d_loose, d_kept, d_still)
 
 def test_premier_league_sequence_registered_frame_by_frame():
     # 51 frames resized from 16:9 to 512 x 512, every other one (the suite's

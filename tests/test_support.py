@@ -12,6 +12,7 @@ from arstream.sink import read_jsonl
 from arstream.source import VideoSource
 from arstream.support import MIN_POINTS, Support, bright_mask, jitter_proxy, line_support, marking_points, pixel_support
 from geometry.camera import Camera, intrinsic_matrix, ptr_from_rotation, rotation_from_ptr
+from cameras import grass_seen
 from geometry.pitch import PitchModel
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "wide"
@@ -264,3 +265,36 @@ def test_one_marking_on_paint_is_not_a_camera(sample_frames):
     assert seen >= 3 and backed == 1
     share, spread = backed_support(cam, only, pitch)
     assert spread == 1 / seen
+
+
+# --- markings on the grass -------------------------------------------------------
+def test_grass_region_reaches_a_share_of_the_width():
+    from arstream.support import GRASS_REACH, grass_region
+
+    g = np.zeros((90, 160), np.uint8)
+    g[45, 80] = 255
+    region = grass_region(g)
+    r = round(GRASS_REACH * 160)  # 2 px
+    assert region.dtype == bool and region[45, 80 + r] and region[45 - r, 80] and not region[45, 80 + r + 1] and not region[45 + r + 1, 80]
+    assert grass_region(np.zeros((9, 16), bool)).sum() == 0  # (at least 1 px of reach, none without grass)
+    with pytest.raises(ValueError, match=r"grass must be \(h, w\)"):
+        grass_region(np.zeros((9, 16, 3), np.uint8))
+
+
+def test_markings_of_the_true_camera_lie_on_the_grass(sample_frames):
+    from arstream.support import grass_region, on_grass
+
+    for cam, _, size in sample_frames:
+        region = grass_region(grass_seen(cam, size))
+        # every marking point in view is on the pitch (the touchlines 3 m inside
+        # the grass, whose small copy is 8 frame pixels a pixel)
+        assert on_grass(cam, region, size) == 1.0
+        # the frame's size or any other with its aspect: the points are scaled to the mask
+        assert on_grass(cam, grass_region(grass_seen(cam, size, small=(320, 180))), size) == 1.0
+
+
+def test_on_grass_undefined_with_few_markings_in_view(sample_frames):
+    from arstream.support import grass_region, on_grass
+
+    cam, _, size = sample_frames[0]
+    assert on_grass(_turned(cam, 0.0, -40.0), grass_region(np.full((90, 160), 255, np.uint8)), size) is None
