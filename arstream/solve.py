@@ -36,7 +36,7 @@ import scipy.optimize
 import scipy.spatial
 
 from arstream.solve_kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
-from geometry.camera import Camera, intrinsic_matrix
+from geometry.camera import Camera, camera_at_centre, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conics
 from geometry.lines import normalize_line
 from geometry.pitch import Arc, PitchModel
@@ -49,6 +49,7 @@ __all__ = [
     "LineIndex",
     "Refinement",
     "refine_camera",
+    "refinements_along_sight",
     "k1_observable",
 ]
 
@@ -770,3 +771,58 @@ def refine_camera(
     except np.linalg.LinAlgError:
         cov = np.full((len(names), len(names)), np.inf)
     return Refinement(camera=cam, confidence=float(conf), rms=rms, n_visible=n_vis, n_inliers=n_in, covariance=cov, params=tuple(names))
+
+
+def refinements_along_sight(
+    camera: Camera,
+    index: LineIndex,
+    size: tuple[int, int],
+    model: ModelSamples,
+    *,
+    scales=(0.8, 0.9, 1.1),
+    estimate_k1: bool = False,
+    radii=(20.0, 10.0, 5.0, 3.0, 2.5),
+    max_points: int = 400,
+) -> list[Refinement]:
+    """Free-pose refinements of ``camera`` started from it moved along its line
+    of sight: to ``scales`` times its distance from the pitch point under the
+    image centre, keeping its picture of the markings in view
+    (:func:`geometry.camera.camera_at_centre`).
+
+    A view through a long lens fits a family of cameras along its line of
+    sight (focal length and distance together), and a refinement started
+    from one member stays near it: a camera tracked about a wrong tripod
+    centre, freed, keeps most of that centre's error. Started from members
+    nearer and farther, the refinements reach the view's own basin where
+    the frame's markings fix it (a penalty area's lines at several depths).
+
+    Parameters
+    ----------
+    camera : Camera (frame pixels), e.g. a measurement about a frozen centre
+    index : LineIndex of the frame's line pixels
+    size : (W, H) frame size, pixels
+    model : ModelSamples
+    scales : distances to try, as multiples of ``camera``'s
+    estimate_k1, radii, max_points : as :func:`refine_camera`
+
+    Returns
+    -------
+    list of Refinement (centre free), one per scale where the start and the
+    refinement could be made (empty when the image centre's ray misses the
+    pitch)
+    """
+    W, H = size
+    g = camera.backproject_to_pitch(np.array([[(W - 1) / 2, (H - 1) / 2]]))[0]
+    if not np.all(np.isfinite(g)):
+        return []
+    g3 = np.append(g, 0.0)
+    inside, _ = _visible(camera, model, size)
+    XY = model.points[inside, :2]
+    out = []
+    for s in scales:
+        try:
+            start = camera_at_centre(camera, g3 + float(s) * (camera.center - g3), XY)
+            out.append(refine_camera(start, index, size, model, center=None, estimate_k1=estimate_k1, radii=radii, max_points=max_points))
+        except ValueError:
+            continue
+    return out

@@ -55,10 +55,10 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
-from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera
+from arstream.solve import LineIndex, ModelSamples, Refinement, _visible, explained_share, k1_observable, refine_camera, refinements_along_sight
 from arstream.solve_lines import plausible
 from arstream.support import backed_support, backs, white_mask
-from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
+from geometry.camera import PTZ, Camera, camera_at_centre, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
 __all__ = ["Tracker", "TrackerConfig"]
@@ -81,6 +81,9 @@ class TrackerConfig:
     centre_break: float = 3.0  # metres: a free pose this far from the tripod centre breaks it
     centre_every: int = 10  # real frames: frames between free-pose checks of the frozen centre ...
     centre_move: float = 1.0  # ... which moves it when its more certain views say so by more than this (m)
+    centre_sure: float = 0.85  # ... or when a free pose lays this share of the markings in view near a line pixel ...
+    centre_gain: float = 0.05  # ... this much more than the measurement about the frozen centre ...
+    centre_recall: int = 3  # ... and the frames checked before it (at most this many) are explained better about its centre
     accel_pan: float = 4.0  # process noise: angular acceleration (rad/s^2) of pan and tilt
     accel_roll: float = 0.05
     accel_logf: float = 2.0  # zoom acceleration (1/s^2 in log f)
@@ -254,6 +257,7 @@ class Tracker:
         self.centre: np.ndarray | None = None
         self._centres: list[tuple[float, np.ndarray]] = []  # (largest sd, centre) of free-pose measurements
         self._centre_check_at = -(10**9)  # the frame the frozen centre was last checked on (real frames)
+        self._centre_views: deque = deque(maxlen=self.cfg.centre_recall)  # (line index, camera, confidence) of the frames checked last
         self._centre_cur: np.ndarray | None = None
         self.k1: float | None = None  # None: unknown yet; 0: no distortion
         self._k1_samples: list[float] = []
@@ -385,6 +389,7 @@ class Tracker:
         if not keep_centre:
             self.centre = None
             self._centres.clear()
+            self._centre_views.clear()
 
     def process(self, index: int, pts: float, image: np.ndarray | None, detections, *, thumbnail: np.ndarray | None = None) -> list[CameraEstimate]:
         """Solve frame ``index``; returns the estimates that became final (one per call
@@ -1070,17 +1075,23 @@ class Tracker:
         frames, 0.7 on israel_league_wide."""
         return min(level, self._conf_ref - 0.1) if self._paint else level
 
+    def _centre_sd(self, r: Refinement) -> float | None:
+        """The largest standard deviation (m) of a free-pose measurement's
+        centre, or None when it has none or it is not finite."""
+        names = list(r.params)
+        if "cx" not in names:
+            return None
+        sd = np.sqrt(np.maximum(np.diag(r.covariance)[[names.index(n) for n in ("cx", "cy", "cz")]], 0))
+        return float(sd.max()) if np.all(np.isfinite(sd)) else None
+
     def _add_centre(self, r: Refinement) -> bool:
         """Keep a free-pose measurement's centre as a tripod-centre candidate, with
         its largest standard deviation, when it is complete and certain enough
         (``centre_sigma``); returns whether it was kept."""
-        names = list(r.params)
-        if "cx" not in names or r.confidence < self._complete(0.7):
+        sd = self._centre_sd(r)
+        if sd is None or r.confidence < self._complete(0.7) or sd >= self.cfg.centre_sigma:
             return False
-        sd = np.sqrt(np.maximum(np.diag(r.covariance)[[names.index(n) for n in ("cx", "cy", "cz")]], 0))
-        if not (np.all(np.isfinite(sd)) and sd.max() < self.cfg.centre_sigma):
-            return False
-        self._centres.append((float(sd.max()), r.camera.center))
+        self._centres.append((sd, r.camera.center))
         return True
 
     def _best_centre(self) -> np.ndarray:
@@ -1096,31 +1107,65 @@ class Tracker:
         The centre is frozen from the clip's first confident views. A view of
         the centre circle from far away fixes it poorly along the line of sight
         (its focal length and distance trade), and a wrong centre makes every
-        later frame bend its focal length and k1 to fit. A later view with a
-        smaller uncertainty (a penalty area's lines at several depths) joins
-        the candidates; when the median of the most certain ones moves by more
-        than ``centre_move`` metres, the tracker goes on about it: the
-        measurement refined about the new centre, the filter's angles set to
-        it (its rates kept, its angle variances widened). Returns the
-        measurement to use."""
+        later frame bend its focal length and k1 to fit. Two ways move it:
+
+        * a later view with a smaller uncertainty (a penalty area's lines at
+          several depths) joins the candidates; when the median of the most
+          certain ones moves by more than ``centre_move`` metres;
+        * the first views, tracked one from the next, share one basin of that
+          trade, and a free pose started from a measurement about a wrong
+          centre stays in it. So the free pose is also started from the
+          measurement moved along its line of sight (the camera at ``0.8``,
+          ``0.9`` and ``1.1`` times its distance from the pitch point under the
+          image centre, keeping its picture:
+          :func:`geometry.camera.camera_at_centre`), searched from 20 px in. When
+          the best of them lays :attr:`TrackerConfig.centre_sure` of the
+          markings in view near a line pixel, ``centre_gain`` more than the
+          measurement, from a centre more than ``centre_move`` away, the
+          frames checked before (up to ``centre_recall`` of them) are refined
+          about that centre: when they are explained better on average and
+          none clearly worse (``centre_gain`` / 2), the centre goes there and
+          the candidates start again from it (a free pose of one frame is
+          not trusted alone: through a long lens they scatter by metres).
+
+        Either way the tracker goes on about the new centre: the measurement
+        refined about it, the filter's angles set to it (its rates kept, its
+        angle variances widened). Returns the measurement to use."""
         self._centre_check_at = index
+        want_k1 = self._want_k1(meas.camera.focal)
         try:
             # (several rounds: along the line of sight the fit is flat, and a round or
             # two from the frozen centre stop short of the view's own)
-            rf = refine_camera(meas.camera, lidx, self.size, self.model, center=None, estimate_k1=self._want_k1(meas.camera.focal), radii=(4.0, 2.5, 2.5, 2.5, 2.5), max_points=400)
+            rf = refine_camera(meas.camera, lidx, self.size, self.model, center=None, estimate_k1=want_k1, radii=(4.0, 2.5, 2.5, 2.5, 2.5), max_points=400)
         except ValueError:
             return meas
-        if not self._add_centre(rf) or len(self._centres) < self.cfg.centre_frames:
-            return meas
-        new = self._best_centre()
-        if np.linalg.norm(new - self.centre) <= self.cfg.centre_move:
-            return meas
-        try:
-            rc = refine_camera(rf.camera, lidx, self.size, self.model, center=new, estimate_k1=self._want_k1(rf.camera.focal), radii=(4.0, 2.5), max_points=400)
-        except ValueError:
-            return meas
-        if rc.confidence < meas.confidence - 0.05:
-            return meas
+        recent = list(self._centre_views)
+        self._centre_views.append((lidx, meas.camera, meas.confidence))
+        best = self._free_pose_along_sight(meas, lidx, rf, want_k1)
+        rc = None
+        if best.confidence >= max(self.cfg.centre_sure, meas.confidence + self.cfg.centre_gain) and np.linalg.norm(best.camera.center - self.centre) > self.cfg.centre_move:
+            new = best.camera.center
+            if self._explains_better(new, recent):
+                try:
+                    rc = refine_camera(best.camera, lidx, self.size, self.model, center=new, estimate_k1=want_k1, radii=(4.0, 2.5), max_points=400)
+                except ValueError:
+                    rc = None
+                if rc is not None and rc.confidence >= meas.confidence:
+                    self._centres = [(self._centre_sd(best) or self.cfg.centre_sigma, new)]
+                else:
+                    rc = None
+        if rc is None:
+            if not self._add_centre(rf) or len(self._centres) < self.cfg.centre_frames:
+                return meas
+            new = self._best_centre()
+            if np.linalg.norm(new - self.centre) <= self.cfg.centre_move:
+                return meas
+            try:
+                rc = refine_camera(rf.camera, lidx, self.size, self.model, center=new, estimate_k1=want_k1, radii=(4.0, 2.5), max_points=400)
+            except ValueError:
+                return meas
+            if rc.confidence < meas.confidence - 0.05:
+                return meas
         self.centre = new
         self.stats["centre_moves"] += 1
         kf = self._kf
@@ -1131,3 +1176,30 @@ class Tracker:
         kf.P[0::2, 0::2] += np.diag([1e-4, 1e-4, 1e-4, 1e-3])
         self._kf_id = index  # (the smoother must not mix angles about two centres)
         return rc
+
+    def _free_pose_along_sight(self, meas: Refinement, lidx: LineIndex, rf: Refinement, want_k1: bool) -> Refinement:
+        """Of ``rf`` and the free poses of ``meas``'s camera moved along its line
+        of sight (:func:`arstream.solve.refinements_along_sight`), the
+        plausible one with the most markings near a line pixel."""
+        best = rf
+        for r in refinements_along_sight(meas.camera, lidx, self.size, self.model, estimate_k1=want_k1):
+            if r.confidence > best.confidence and plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
+                best = r
+        return best
+
+    def _explains_better(self, centre: np.ndarray, recent: list) -> bool:
+        """Whether the frames checked before (``recent``: (line index, measured
+        camera, its confidence)), each refined about ``centre`` from its camera
+        moved there keeping its picture, lay more of the markings near their
+        line pixels on average, and none ``centre_gain`` / 2 fewer. False with
+        fewer than two such frames."""
+        gains = []
+        for lj, cj, confj in recent:
+            inside, _ = _visible(cj, self.model, self.size)
+            try:
+                start = camera_at_centre(cj, centre, self.model.points[inside, :2])
+                rj = refine_camera(start, lj, self.size, self.model, center=centre, estimate_k1=self._want_k1(cj.focal), radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
+            except ValueError:
+                return False
+            gains.append(rj.confidence - confj)
+        return len(gains) >= 2 and float(np.mean(gains)) > 0.0 and min(gains) > -self.cfg.centre_gain / 2

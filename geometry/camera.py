@@ -40,6 +40,8 @@ __all__ = [
     "P_from_KRt",
     "KRt_from_P",
     "camera_from_homography",
+    "camera_near_homography",
+    "camera_at_centre",
     "HomographyPoses",
     "decompose_homographies",
     "homographies_from_parallel_lines",
@@ -503,6 +505,75 @@ def camera_near_homography(H_img_from_pitch, principal_point, XY, *, aspect: flo
     if not (np.all(np.isfinite(sol.x)) and sol.cost <= 0.5 * float(r0 @ r0)):
         return cam0
     return camera(sol.x)
+
+
+def camera_at_centre(camera: Camera, center, XY) -> Camera:
+    """The camera at another centre whose picture of given pitch points is
+    closest to ``camera``'s: the same principal point, aspect, skew and
+    distortion; rotation and focal length fitted.
+
+    A view of a distant part of the pitch is drawn almost the same from
+    anywhere along its line of sight, the focal length growing with the
+    distance (the depth-zoom ambiguity of a long lens). A camera that a
+    single frame places 30 m too far back along that line, moved to the
+    tripod's known centre, keeps its picture rather than its rotation: this
+    minimises the pixel distances between the two cameras' projections of
+    ``XY`` over rotation and log focal length (Levenberg-Marquardt), from the
+    rotation that turns the optical axis onto the points' centroid and the
+    focal length scaled by the ratio of the distances to it.
+
+    Parameters
+    ----------
+    camera : Camera, the picture to keep
+    center : (3,) metres, pitch frame: the new camera's centre
+    XY : (N, 2) pitch points, metres, N >= 3 (e.g. points the camera sees)
+
+    Returns
+    -------
+    Camera with centre ``center``
+
+    Raises
+    ------
+    ValueError
+        With fewer than 3 points, a centre that is not finite, or points
+        behind either centre (along ``camera``'s optical axis).
+    """
+    import scipy.optimize
+    from scipy.spatial.transform import Rotation
+
+    c0 = np.asarray(center, dtype=np.float64).reshape(-1)
+    if c0.shape != (3,) or not np.all(np.isfinite(c0)):
+        raise ValueError(f"center must be a finite (3,) vector, got {c0}")
+    XY = np.asarray(XY, dtype=np.float64).reshape(-1, 2)
+    if len(XY) < 3:
+        raise ValueError(f"need at least 3 pitch points, got {len(XY)}")
+    X3 = np.column_stack([XY, np.zeros(len(XY))])
+    if not (np.all(camera.in_front(X3)) and np.all((X3 - c0) @ camera.R[2] > 0)):
+        raise ValueError("the pitch points must lie in front of both centres")
+    target = camera.project(X3)
+    # start: the optical axis turned onto the same pitch point, f by the distances
+    c1 = camera.center
+    g = X3.mean(axis=0)
+    a1 = (g - c1) / np.linalg.norm(g - c1)
+    a0 = (g - c0) / np.linalg.norm(g - c0)
+    turn, _ = Rotation.align_vectors(a1[None], a0[None])  # takes a0 onto a1
+    R0 = camera.R @ turn.as_matrix()
+    p0 = np.array([0.0, 0.0, 0.0, math.log(camera.focal * np.linalg.norm(g - c0) / np.linalg.norm(g - c1))])
+    K = camera.K
+    shape = K / K[0, 0]  # (aspect and skew kept as ratios to f)
+    shape[:, 2] = 0.0
+
+    def cam(p):
+        R = Rotation.from_rotvec(p[:3]).as_matrix() @ R0
+        Kp = shape * math.exp(p[3])
+        Kp[:, 2] = K[:, 2]
+        return Camera.trusted(Kp, R, -R @ c0, camera.dist)
+
+    def residual(p):
+        return (cam(p).project(X3) - target).ravel()
+
+    sol = scipy.optimize.least_squares(residual, p0, method="lm", max_nfev=200)
+    return cam(sol.x if np.all(np.isfinite(sol.x)) else p0)
 
 
 def rotation_from_ptr(pan: float, tilt: float, roll: float) -> np.ndarray:

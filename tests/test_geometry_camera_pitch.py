@@ -220,3 +220,50 @@ def test_projected_circle_matches_conic_transfer():
 def test_degenerate_inputs(call, message):
     with pytest.raises(ValueError, match=message):
         call()
+
+
+def _seen_pitch_points(cam, size=(1280, 720), step=4.0):
+    """Points (N, 2) of the pitch plane on a 4 m grid that ``cam`` sees."""
+    XY = np.stack(np.meshgrid(np.arange(-150.0, 150.0, step), np.arange(-60.0, 150.0, step)), -1).reshape(-1, 2)
+    X3 = np.column_stack([XY, np.zeros(len(XY))])
+    px = cam.project(X3)
+    seen = cam.in_front(X3) & (px[:, 0] >= 0) & (px[:, 0] < size[0]) & (px[:, 1] >= 0) & (px[:, 1] < size[1])
+    return XY[seen]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_camera_at_centre_keeps_the_picture(seed):
+    # at its own centre: the camera itself (the start is exact: the fit
+    # stays there to the LM's tolerance); moved 1.4 times as far back along
+    # the line of sight (a long lens's depth-zoom ambiguity) and back again:
+    # the focal length and rotation come back to the fit's picture error,
+    # a small fraction of a pixel here as the view's own depth varies
+    rng = np.random.default_rng(seed)
+    cam = broadcast_camera(rng)
+    XY = _seen_pitch_points(cam)
+    X3 = np.column_stack([XY, np.zeros(len(XY))])
+    same = gcam.camera_at_centre(cam, cam.center, XY)
+    assert np.abs(same.project(X3) - cam.project(X3)).max() < 1e-6
+    g = X3.mean(axis=0)
+    far = g + 1.4 * (cam.center - g)
+    moved = gcam.camera_at_centre(cam, far, XY)
+    np.testing.assert_allclose(moved.center, far, atol=1e-9)
+    assert moved.focal > cam.focal  # farther back, a longer lens
+    back = gcam.camera_at_centre(moved, cam.center, XY)
+    moved_err = np.abs(moved.project(X3) - cam.project(X3)).max()
+    back_err = np.abs(back.project(X3) - cam.project(X3)).max()
+    assert back_err < max(0.5, 0.2 * moved_err), (moved_err, back_err)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (lambda cam: (cam.center, np.zeros((2, 2))), "at least 3 pitch points"),
+        (lambda cam: (np.array([0.0, np.nan, 10.0]), np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]])), "finite"),
+        (lambda cam: (np.array([0.0, 80.0, 10.0]), np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]])), "in front of both"),
+    ],
+)
+def test_camera_at_centre_bad_input(args, message):
+    cam = broadcast_camera(np.random.default_rng(0))
+    with pytest.raises(ValueError, match=message):
+        gcam.camera_at_centre(cam, *args(cam))

@@ -714,3 +714,42 @@ def test_refine_pose_reaches_the_soft_l1_minimum_scipy_finds(which):
     assert np.abs(pixels(x) - pixels(ref.x)).max() < 0.25, name
     assert np.abs(pixels(th0) - pixels(ref.x)).max() > 3.0  # (from a start pixels away)
     assert 1 <= steps <= 50
+
+
+@pytest.mark.parametrize("farther", [1.25, 1.4])
+def test_refinements_along_sight_leave_a_wrong_centres_basin(farther):
+    # a view between the centre circle and a penalty area through a long lens
+    # (3.3 widths), and the best camera about a centre 1.25 or 1.4 times as far
+    # along the line of sight: freed in small steps, the refinement stays in
+    # that basin, metres off (0.63 and 0.53 of the markings in view near a line
+    # pixel, 14.5 and 8.1 m); started from the camera moved nearer and farther
+    # along the line of sight, one reaches the view's own camera (1.00, 0.04
+    # and 0.13 m)
+    from cameras import looking_at
+
+    from arstream.solve import refinements_along_sight
+    from geometry.camera import camera_at_centre
+
+    true = looking_at((24.0, -60.0, 9.5), (-20.0, 10.0, 0.0), 3.3 * SIZE[0], SIZE)
+
+    def in_view(px):
+        return np.all(np.isfinite(px), axis=1) & (px[:, 0] >= 0) & (px[:, 0] < SIZE[0]) & (px[:, 1] >= 0) & (px[:, 1] < SIZE[1])
+
+    P = PITCH.sample_points(0.05)
+    px = true.project_pitch(P)
+    ok = in_view(px)
+    index = LineIndex(px[ok] + np.random.default_rng(0).normal(0.0, 0.3, (ok.sum(), 2)))
+    g = np.append(true.backproject_to_pitch(np.array([[639.5, 359.5]]))[0], 0.0)
+    far = g + farther * (true.center - g)
+    seen = PITCH.sample_points(1.0)
+    wrong = refine_camera(camera_at_centre(true, far, seen[in_view(true.project_pitch(seen))]), index, SIZE, MODEL, center=far, radii=(4.0, 2.5))
+    freed = refine_camera(wrong.camera, index, SIZE, MODEL, center=None, radii=(4.0, 2.5, 2.5, 2.5, 2.5))
+    found = refinements_along_sight(wrong.camera, index, SIZE, MODEL)
+    assert len(found) == 3
+    best = max(found, key=lambda r: r.confidence)
+    assert freed.confidence < 0.7 and np.linalg.norm(freed.camera.center - true.center) > 5.0, (freed.confidence, freed.camera.center)
+    # (0.3 px of noise on the line pixels: a few centimetres along the line of sight)
+    assert best.confidence > 0.99 and np.linalg.norm(best.camera.center - true.center) < 0.5, (best.confidence, best.camera.center)
+    # no pitch under the image centre's ray: nothing to start from
+    sky = looking_at((24.0, -60.0, 9.5), (-20.0, 10.0, 30.0), 3.3 * SIZE[0], SIZE)
+    assert refinements_along_sight(sky, index, SIZE, MODEL) == []
