@@ -1141,7 +1141,8 @@ class Tracker:
             return meas
         recent = list(self._centre_views)
         self._centre_views.append((lidx, meas.camera, meas.confidence))
-        best = self._free_pose_along_sight(meas, lidx, rf, want_k1)
+        # (a measurement within centre_gain of all markings near a line pixel: none can beat it)
+        best = self._free_pose_along_sight(meas, lidx, rf, want_k1) if meas.confidence + self.cfg.centre_gain <= 1.0 else rf
         rc = None
         if best.confidence >= max(self.cfg.centre_sure, meas.confidence + self.cfg.centre_gain) and np.linalg.norm(best.camera.center - self.centre) > self.cfg.centre_move:
             new = best.camera.center
