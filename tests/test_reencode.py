@@ -78,3 +78,22 @@ def test_reencode_makes_the_same_bytes_twice(tmp_path):
         reencode(src, tmp_path / "c.mp4", (31, 24), 20)
     with pytest.raises(ValueError, match="libx264 or mpeg2video"):
         reencode(src, tmp_path / "d.mp4", (32, 24), 20, codec="vp9")
+
+
+@pytest.mark.parametrize("level", [None, "WARNING"])
+def test_the_x264_probe_leaves_pyavs_logging_as_it_was(level):
+    # the probe turns PyAV's logging on to read x264's report; left on, a
+    # frame-threaded decoder freed while one of its threads waits to log
+    # hangs the process (the suite hung so after a test made an x264 copy)
+    import av.logging
+    from encoder_reproducibility import _capabilities, capabilities
+
+    before = av.logging.get_level()
+    try:
+        av.logging.set_level(None if level is None else getattr(av.logging, level))
+        _capabilities.cache_clear()
+        caps = capabilities()
+        assert caps and all(isinstance(c, str) for c in caps)
+        assert av.logging.get_level() == (None if level is None else getattr(av.logging, level))
+    finally:
+        av.logging.set_level(before)
