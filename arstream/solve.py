@@ -49,6 +49,7 @@ __all__ = [
     "LineIndex",
     "Refinement",
     "refine_camera",
+    "seated",
     "refinements_along_sight",
     "k1_observable",
 ]
@@ -816,13 +817,26 @@ def refinements_along_sight(
     if not np.all(np.isfinite(g)):
         return []
     g3 = np.append(g, 0.0)
-    inside, _ = _visible(camera, model, size)
-    XY = model.points[inside, :2]
     out = []
     for s in scales:
         try:
-            start = camera_at_centre(camera, g3 + float(s) * (camera.center - g3), XY)
+            start = seated(camera, g3 + float(s) * (camera.center - g3), model, size)
             out.append(refine_camera(start, index, size, model, center=None, estimate_k1=estimate_k1, radii=radii, max_points=max_points))
         except ValueError:
             continue
     return out
+
+
+def seated(camera: Camera, center, model: ModelSamples, size: tuple[int, int]) -> Camera:
+    """``camera`` moved to ``center`` (3,) keeping its picture of the model's
+    samples in view (:func:`geometry.camera.camera_at_centre`): the start of a
+    refinement about another centre.
+
+    Raises
+    ------
+    ValueError
+        As :func:`geometry.camera.camera_at_centre` (fewer than 3 samples in
+        view, a centre that is not finite, samples behind either centre).
+    """
+    inside, _ = _visible(camera, model, size)
+    return camera_at_centre(camera, center, model.points[inside, :2])

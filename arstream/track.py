@@ -55,10 +55,10 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
-from arstream.solve import LineIndex, ModelSamples, Refinement, _visible, explained_share, k1_observable, refine_camera, refinements_along_sight
+from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
 from arstream.support import backed_support, backs, white_mask
-from geometry.camera import PTZ, Camera, camera_at_centre, camera_from_ptz, ptr_from_rotation
+from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
 __all__ = ["Tracker", "TrackerConfig"]
@@ -1117,8 +1117,8 @@ class Tracker:
           centre stays in it. So the free pose is also started from the
           measurement moved along its line of sight (the camera at ``0.8``,
           ``0.9`` and ``1.1`` times its distance from the pitch point under the
-          image centre, keeping its picture:
-          :func:`geometry.camera.camera_at_centre`), searched from 20 px in. When
+          image centre, keeping its picture: :func:`arstream.solve.seated`),
+          searched from 20 px in. When
           the best of them lays :attr:`TrackerConfig.centre_sure` of the
           markings in view near a line pixel, ``centre_gain`` more than the
           measurement, from a centre more than ``centre_move`` away, the
@@ -1196,10 +1196,8 @@ class Tracker:
         fewer than two such frames."""
         gains = []
         for lj, cj, confj in recent:
-            inside, _ = _visible(cj, self.model, self.size)
             try:
-                start = camera_at_centre(cj, centre, self.model.points[inside, :2])
-                rj = refine_camera(start, lj, self.size, self.model, center=centre, estimate_k1=self._want_k1(cj.focal), radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
+                rj = refine_camera(seated(cj, centre, self.model, self.size), lj, self.size, self.model, center=centre, estimate_k1=self._want_k1(cj.focal), radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
             except ValueError:
                 return False
             gains.append(rj.confidence - confj)
