@@ -24,13 +24,13 @@ import numpy as np
 from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
-from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible
+from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
 from arstream.support import ON_GRASS, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "circle_view_cameras", "register_frame"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "circle_view_cameras", "register_frame"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -236,10 +236,18 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
             continue  # too little in view to be judged: a piece of one marking on a line fits anywhere
         if min_on_grass is not None and view.grass is not None and (on_grass(rf.camera, view.grass, size, pitch) or 1.0) < min_on_grass:
             continue  # markings off the grass: a member of a long lens's depth-zoom family too far away
-        score = s0 + RECALL_WEIGHT * explained_share(rf.camera, view.index, size, model, radius=2.5)
+        score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score
     return (best, best_s) if best is not None else (None, None)
+
+
+def paint_score(camera: Camera, support: float, view: PaintView, size, model: ModelSamples) -> float:
+    """How well a frame's paint backs a camera, to choose between hypotheses:
+    its line support on white paint (``support``, precision) plus
+    :data:`RECALL_WEIGHT` times the share of the paint's pixels it explains
+    (:func:`arstream.solve.explained_share` within 2.5 px, recall)."""
+    return support + RECALL_WEIGHT * explained_share(camera, view.index, size, model, radius=2.5)
 
 
 def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, circles=(), lines=(), keep: int = 2, max_pairs: int = 4, focals_per_width=np.geomspace(0.4, 10.0, 18)) -> list[Camera]:
@@ -253,8 +261,11 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
     circle (:func:`arstream.solve.cameras_along_circle`, at ``focals_per_width``
     times the width) all lay the circle and the halfway line on their
     pixels; what tells them apart is the rest of the pitch (the far
-    touchline, a penalty area). Of the plausible ones
-    (:func:`arstream.solve_lines.plausible`), the ``keep`` with the most
+    touchline, a penalty area). Each plausible member
+    (:func:`arstream.solve_lines.plausible`) is refined against the paint
+    pixels (the focal grid is coarse: a member one step from the right
+    camera lays those markings a few px off their paint); of the distinct
+    refinements still plausible, the ``keep`` with the most
     marking points on white paint net of those off it
     (``2 n_supported - n_inside`` of :func:`arstream.support.line_support`)
     are returned: a member with a longer lens shows the same circle with
@@ -272,6 +283,7 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
         if not any(abs(dl.line[:2] @ o.line[:2]) > np.cos(np.radians(1.0)) and abs(dl.line @ np.append(o.endpoints.mean(axis=0), 1.0)) < 0.005 * W for o in cands):
             cands.append(dl)
     points = marking_points(pitch)
+    model = ModelSamples.from_pitch(pitch, 0.5)
     radius = pitch["centre_circle"].radius
     out: list[Camera] = []
     pairs = 0
@@ -292,7 +304,17 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
                 continue
             scored = []
             for cam in fam:
-                if plausible(cam.center, cam.focal, W, pitch)[0]:
+                if not plausible(cam.center, cam.focal, W, pitch)[0]:
+                    continue
+                # (each member first refined against the paint: the focal grid is
+                # coarse, and a member a grid step from the right camera lays
+                # the markings beyond the circle's reach a few px off their
+                # paint, where a longer lens showing less of the pitch scores)
+                try:
+                    cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
+                except ValueError:
+                    continue
+                if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for _, c in scored):
                     s = line_support(cam, view.bright, points)
                     scored.append((2 * s.n_supported - s.n_inside, cam))
             scored.sort(key=lambda x: -x[0])
@@ -336,7 +358,8 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     tracker's test); when the detector's lines give none that does, or one
     below :data:`PAINT_CHECK`, the paint initialiser
     (:func:`initialise_from_paint`, for real broadcast frames) is tried, and
-    the better backed camera kept. With the frame, the detector's camera is
+    of two backed cameras the one with the higher :func:`paint_score` (by
+    more than 0.02) kept. With the frame, the detector's camera is
     judged by its paint even below INIT_ACCEPT (the ridge detector's recall
     on a real frame). The support is in ``info["support"]``.
     """
@@ -375,7 +398,10 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
-                if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or (sp or 0.0) > (sup or 0.0) + 0.02:
+                # (by the paint initialiser's own measure: a camera that lays a
+                # few markings on one line or on the boards can have the higher
+                # support while it leaves most of the frame's paint unexplained)
+                if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or paint_score(rp.camera, sp or 0.0, view, size, model) > paint_score(r.camera, sup or 0.0, view, size, model) + 0.02:
                     r, sup, spread = rp, sp, spread_p
         if r is not None and not backed(r.camera, sup, spread):
             g = None if view.grass is None else on_grass(r.camera, view.grass, size, pitch)

@@ -31,7 +31,7 @@ from geometry.homography import homographies_from_lines
 from geometry.lines import normalize_line
 from geometry.pitch import PitchModel
 
-__all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses", "plausible"]
+__all__ = ["cameras_from_line_hypotheses", "cameras_from_line_pairs", "LineHypotheses", "plausible", "same_camera"]
 
 
 def _vp_candidates(L: list[np.ndarray], mids: np.ndarray, tol_deg: float = 1.5, ends: np.ndarray | None = None) -> list[tuple[np.ndarray, list[int]]]:
@@ -291,7 +291,7 @@ def _oriented(L: np.ndarray, in1: list[int], in2: list[int]) -> tuple[list[int],
     return (in1, in2) if flatness(in1) >= flatness(in2) else (in2, in1)
 
 
-def _same_camera(a: Camera, b: Camera) -> bool:
+def same_camera(a: Camera, b: Camera) -> bool:
     """Two hypotheses are one camera: centres within 1 m, focal lengths within 2 %."""
     return bool(np.linalg.norm(a.center - b.center) < 1.0 and abs(np.log(a.focal / b.focal)) < 0.02)
 
@@ -560,7 +560,7 @@ def cameras_from_line_pairs(
             except ValueError:
                 continue
             # the same camera from another assignment (a line pair read twice): skip
-            if any(_same_camera(cam, o) for o in cams):
+            if any(same_camera(cam, o) for o in cams):
                 continue
             cams.append(cam)
             sc.append(scores[j])
@@ -579,7 +579,7 @@ def cameras_from_line_pairs(
     cams, sc = [], []
     for i, h in enumerate(out):
         for cam, v in list(zip(h.cameras, h.scores))[: keep if i < 2 else max(1, keep // 2)]:
-            if not any(_same_camera(cam, o) for o in cams):
+            if not any(same_camera(cam, o) for o in cams):
                 cams.append(cam)
                 sc.append(v)
     order = np.argsort(-np.array(sc), kind="stable")

@@ -1,0 +1,214 @@
+"""Benchmark: ``arstream register`` on the real reference frames under broadcast
+graphics (issue 29, points 1 and 3).
+
+Every frame with a reference camera (the shared stills, the three Premier
+League frames with their pixel aspect 16/9, and every 25th frame of the two
+shared clips) is registered as a still, clean and with graphics drawn over it
+the way broadcasts do: a lower-third caption, a score box with a channel
+logo, an opaque bar over the bottom quarter or third (a ticker, a replay
+wipe), letterbox and pillarbox bars, and the frame scaled to 854 x 480 and
+saved as a strong JPEG. The graphics hide markings but do not move them, so
+the reference camera is still the truth (scaled with the frame).
+
+For each variant the table counts the frames registered, those within 5 px
+of the reference, and those **beyond 20 px: wrong cameras that would be
+drawn** (DESIGN 5b: never draw with a wrong camera). Distances are means over
+the markings in the reference's view, in pixels of a 1280-wide frame.
+
+Usage::
+
+    python bench/real_graphics.py [--variants NAME ...] [--items PREFIX ...] [--show] [--draw DIR]
+
+The material is read from ``../shared/data/real-broadcast`` (skipped with a
+message where it is absent).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from arstream.evaluate_video import draw_overlay  # noqa: E402
+from geometry.camera import Camera  # noqa: E402
+from real_footage import CLIPS, EPL_ASPECT, SHARED, STILLS, _register, distance_1280, references  # noqa: E402
+
+#: pitch sizes of the clips whose pitch is not 105 x 68 (bench/real_footage.py --pitch)
+PITCHES = {"artificial_turf_multisport": (100.0, 68.0)}
+
+
+def _text(img: np.ndarray, text: str, org, scale: float, thickness: int) -> None:
+    cv2.putText(img, text, (int(org[0]), int(org[1])), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), thickness, cv2.LINE_AA)
+
+
+def lower_third(img: np.ndarray) -> np.ndarray:
+    """A caption box over the lower left: 60 % of the width, 13 % of the height."""
+    out = img.copy()
+    H, W = img.shape[:2]
+    x0, y0, x1, y1 = int(0.06 * W), int(0.78 * H), int(0.66 * W), int(0.91 * H)
+    out[y0:y1, x0:x1] = (90, 40, 10)
+    out[y0 : y0 + max(2, H // 180), x0:x1] = (0, 200, 255)
+    s = H / 720
+    _text(out, "17  MARTINEZ  Forward", (x0 + 20 * s, y0 + 0.45 * (y1 - y0)), 1.1 * s, max(1, round(2 * s)))
+    _text(out, "Goals this season 14", (x0 + 20 * s, y0 + 0.85 * (y1 - y0)), 0.8 * s, max(1, round(2 * s)))
+    return out
+
+
+def score_box(img: np.ndarray) -> np.ndarray:
+    """A score box at the top left and a half-transparent channel logo at the top right."""
+    out = img.copy()
+    H, W = img.shape[:2]
+    s = H / 720
+    x0, y0, x1, y1 = int(0.04 * W), int(0.05 * H), int(0.30 * W), int(0.11 * H)
+    out[y0:y1, x0:x1] = (30, 30, 30)
+    _text(out, "ARS 1-0 CHE  63:12", (x0 + 12 * s, y1 - 0.25 * (y1 - y0)), 0.8 * s, max(1, round(2 * s)))
+    logo = out.copy()
+    _text(logo, "SPORT 1 HD", (0.80 * W, 0.10 * H), 1.2 * s, max(2, round(3 * s)))
+    return cv2.addWeighted(logo, 0.6, out, 0.4, 0)
+
+
+def bottom_bar(share: float):
+    def draw(img: np.ndarray) -> np.ndarray:
+        out = img.copy()
+        H, W = img.shape[:2]
+        y0 = int(round((1 - share) * H))
+        out[y0:] = (40, 40, 40)
+        s = H / 720
+        _text(out, "GERMANY 1 - 0 ARGENTINA", (0.04 * W, y0 + 0.5 * (H - y0)), 1.2 * s, max(1, round(3 * s)))
+        return out
+
+    draw.__doc__ = f"An opaque bar with a caption over the bottom {share:.0%} of the frame."
+    return draw
+
+
+def letterbox(img: np.ndarray) -> np.ndarray:
+    """Black bars over the top and bottom 12.5 % (a 2.35:1 picture in a 16:9 frame)."""
+    out = img.copy()
+    H = img.shape[0]
+    b = int(round(0.125 * H))
+    out[:b] = 0
+    out[H - b :] = 0
+    return out
+
+
+def pillarbox(img: np.ndarray) -> np.ndarray:
+    """Black bars over the left and right 12.5 % (a 4:3 picture in a 16:9 frame)."""
+    out = img.copy()
+    W = img.shape[1]
+    b = int(round(0.125 * W))
+    out[:, :b] = 0
+    out[:, W - b :] = 0
+    return out
+
+
+def small_jpeg(img: np.ndarray) -> np.ndarray:
+    """The frame scaled (area averaging) to 480 rows and saved as a JPEG of quality 35."""
+    H, W = img.shape[:2]
+    h = 480
+    w = int(round(W * h / H / 2)) * 2
+    small = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+    ok, buf = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, 35])
+    return cv2.imdecode(buf, cv2.IMREAD_COLOR)
+
+
+VARIANTS = {
+    "clean": lambda img: img,
+    "lower-third": lower_third,
+    "score-box": score_box,
+    "bar-25": bottom_bar(0.25),
+    "bar-33": bottom_bar(0.33),
+    "letterbox": letterbox,
+    "pillarbox": pillarbox,
+    "480p-jpeg35": small_jpeg,
+}
+
+
+def items(prefixes=None):
+    """(name, BGR frame, pixel aspect, reference Camera, PitchModel) of every
+    frame with a reference camera."""
+    import av
+
+    out = []
+    for s in STILLS:
+        img = cv2.imread(str(SHARED / "stills" / f"{s}.png"))
+        for k, (cam, pitch) in references(s).items():
+            out.append((s, img, 1.0, cam, pitch))
+    for k, (cam, pitch) in sorted(references("sequence_epl").items()):
+        out.append((f"sequence_epl {k:02d}", cv2.imread(str(SHARED / "sequence-epl" / f"frame_{k:02d}.jpg")), EPL_ASPECT, cam, pitch))
+    for name in CLIPS:
+        refs = references(name)
+        with av.open(str(SHARED / "clips" / f"{name}.mp4")) as c:
+            for k, frame in enumerate(c.decode(video=0)):
+                if k > max(refs):
+                    break
+                if k in refs:
+                    out.append((f"{name} {k:03d}", frame.to_ndarray(format="bgr24"), 1.0, *refs[k]))
+    if prefixes:
+        out = [it for it in out if any(it[0].startswith(p) for p in prefixes)]
+    return out
+
+
+def scaled(cam: Camera, sx: float, sy: float) -> Camera:
+    """The camera of the same frame scaled by (sx, sy)."""
+    return Camera(K=np.diag([sx, sy, 1.0]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+
+
+def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -> list[dict]:
+    rows = []
+    frames = items(prefixes)
+    for v in variants:
+        got = near = wrong = 0
+        t0 = time.perf_counter()
+        for name, img, aspect, ref, pitch in frames:
+            H0, W0 = img.shape[:2]
+            im = VARIANTS[v](img)
+            H, W = im.shape[:2]
+            truth = scaled(ref, W / W0, H / H0)
+            item = name.split(" ")[0]
+            from geometry.pitch import PitchModel
+
+            est, cam = _register(im, aspect, PitchModel(*PITCHES[item]) if item in PITCHES else None)
+            d = float("nan")
+            if cam is not None:
+                got += 1
+                d = distance_1280(truth, cam, (W, H), pitch, aspect)
+                near += d <= 5.0
+                wrong += not d <= 20.0
+            if show:
+                sup = (est.info or {}).get("support")
+                print(f"  {v:12s} {name:32s} {est.status:5s} support {sup if sup is None else round(sup, 3)}  distance {d:.1f} px" + ("" if cam is not None else f"  ({(est.info or {}).get('reason')})"), flush=True)
+            if draw is not None and cam is not None and not d <= 20.0:
+                draw.mkdir(parents=True, exist_ok=True)
+                cv2.imwrite(str(draw / f"{v}_{name.replace(' ', '_')}.jpg"), draw_overlay(im, cam, f"{v} {name}: {d:.0f} px", pixel_aspect=aspect))
+        rows.append({"variant": v, "frames": len(frames), "registered": got, "within_5px": near, "beyond_20px": wrong, "seconds": (time.perf_counter() - t0) / max(len(frames), 1)})
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    ap.add_argument("--items", nargs="+", help="only the frames whose name starts with one of these")
+    ap.add_argument("--show", action="store_true", help="print every frame's result")
+    ap.add_argument("--draw", type=Path, help="write overlays of the wrong cameras (beyond 20 px) into this folder")
+    a = ap.parse_args(argv)
+    if not SHARED.exists():
+        print(f"skipped: {SHARED} is absent")
+        return 0
+    rows = run(a.variants, a.items, a.show, a.draw)
+    print("| variant | frames | registered | within 5 px | beyond 20 px (wrong) | s per frame |")
+    print("|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['variant']} | {r['frames']} | {r['registered']} | {r['within_5px']} | {r['beyond_20px']} | {r['seconds']:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
