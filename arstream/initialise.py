@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
-from arstream.support import ON_GRASS, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, white_mask
+from arstream.support import ON_GRASS, ON_LINES, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
@@ -187,7 +187,7 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, refine_family: bool = False) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -202,16 +202,20 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     detector's straight lines (DetectedLine), tried as the halfway line
     before the paint's. ``min_on_grass``: with the frame's grass known
     (``view.grass``), a hypothesis with a smaller share of its markings in
-    view on the grass (:func:`arstream.support.on_grass`) is left out (a
-    still: :func:`register_frame`). Returns (refinement, its support), or
-    (None, None) when no hypothesis was found.
+    view on the grass (:func:`arstream.support.on_grass`) is left out, and
+    with ``min_on_lines`` one with a smaller share of its markings on paint
+    lying on painted lines rather than along bright steps
+    (:func:`arstream.support.on_lines`) (a still: :func:`register_frame`).
+    ``refine_family``: the centre circle's family refined before it is
+    judged (:func:`circle_view_cameras`' ``refine``). Returns (refinement,
+    its support), or (None, None) when no hypothesis was found.
     """
     W, H = size
     r = max(2, int(round(2.5 * W / 1280)))
     near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     found = view.lines[:10]
     hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
-    cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines)
+    cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
     if not cands:
         return None, None
     model = ModelSamples.from_pitch(pitch, 0.5)
@@ -236,6 +240,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
             continue  # too little in view to be judged: a piece of one marking on a line fits anywhere
         if min_on_grass is not None and view.grass is not None and (on_grass(rf.camera, view.grass, size, pitch) or 1.0) < min_on_grass:
             continue  # markings off the grass: a member of a long lens's depth-zoom family too far away
+        if min_on_lines is not None and (on_lines(rf.camera, view.image, view.bright, pitch) or 1.0) < min_on_lines:
+            continue  # markings along bright steps (the grass's edge, a track, the boards), not painted lines
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score
@@ -250,7 +256,7 @@ def paint_score(camera: Camera, support: float, view: PaintView, size, model: Mo
     return support + RECALL_WEIGHT * explained_share(camera, view.index, size, model, radius=2.5)
 
 
-def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, circles=(), lines=(), keep: int = 2, max_pairs: int = 4, focals_per_width=np.geomspace(0.4, 10.0, 18)) -> list[Camera]:
+def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, circles=(), lines=(), keep: int = 2, max_pairs: int = 4, focals_per_width=np.geomspace(0.4, 10.0, 18), refine: bool = False) -> list[Camera]:
     """Hypotheses of a centre-circle view whose ellipse does not fix the focal
     length (a short arc, or the circle nearly edge-on from a low camera far
     away: the closed form's f is then tens of per cent off).
@@ -261,11 +267,12 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
     circle (:func:`arstream.solve.cameras_along_circle`, at ``focals_per_width``
     times the width) all lay the circle and the halfway line on their
     pixels; what tells them apart is the rest of the pitch (the far
-    touchline, a penalty area). Each plausible member
+    touchline, a penalty area). With ``refine``, each plausible member
     (:func:`arstream.solve_lines.plausible`) is refined against the paint
-    pixels (the focal grid is coarse: a member one step from the right
-    camera lays those markings a few px off their paint); of the distinct
-    refinements still plausible, the ``keep`` with the most
+    pixels first (the focal grid is coarse: a member one step from the right
+    camera lays those markings a few px off their paint, and a longer lens
+    showing less of the pitch then scores more); of the distinct (refined)
+    members still plausible, the ``keep`` with the most
     marking points on white paint net of those off it
     (``2 n_supported - n_inside`` of :func:`arstream.support.line_support`)
     are returned: a member with a longer lens shows the same circle with
@@ -306,14 +313,11 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
             for cam in fam:
                 if not plausible(cam.center, cam.focal, W, pitch)[0]:
                     continue
-                # (each member first refined against the paint: the focal grid is
-                # coarse, and a member a grid step from the right camera lays
-                # the markings beyond the circle's reach a few px off their
-                # paint, where a longer lens showing less of the pitch scores)
-                try:
-                    cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
-                except ValueError:
-                    continue
+                if refine:
+                    try:
+                        cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
+                    except ValueError:
+                        continue
                 if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for _, c in scored):
                     s = line_support(cam, view.bright, points)
                     scored.append((2 * s.n_supported - s.n_inside, cam))
@@ -388,14 +392,16 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         def backed(cam, sup, spread):
             # (and its markings on the grass: a long lens's camera too far away
             # lays the far touchline on the stands, whose seats back it)
-            return sup is not None and backs(sup, spread, min_support) and (view.grass is None or (on_grass(cam, view.grass, size, pitch) or 1.0) >= ON_GRASS)
+            # (and on painted lines, not along bright steps: a track's or the
+            # boards' edges back a marking as a line does)
+            return sup is not None and backs(sup, spread, min_support) and (view.grass is None or (on_grass(cam, view.grass, size, pitch) or 1.0) >= ON_GRASS) and (on_lines(cam, image, view.bright, pitch) or 1.0) >= ON_LINES
 
         view = paint_view(image, detections)
         sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
         if r is None or not backed(r.camera, sup, spread) or sup < PAINT_CHECK:
             # (a backed camera from the detector's lines that still leaves much of
             # the paint off its markings: the paint's own may do better)
-            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS)
+            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 # (by the paint initialiser's own measure: a camera that lays a
@@ -405,7 +411,12 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                     r, sup, spread = rp, sp, spread_p
         if r is not None and not backed(r.camera, sup, spread):
             g = None if view.grass is None else on_grass(r.camera, view.grass, size, pitch)
-            why = f"{g:.0%} of its markings in view on the grass" if g is not None and g < ON_GRASS and sup is not None and backs(sup, spread, min_support) else f"{spread:.0%} of its markings in view on paint"
+            if sup is None or not backs(sup, spread, min_support):
+                why = f"{spread:.0%} of its markings in view on paint"
+            elif g is not None and g < ON_GRASS:
+                why = f"{g:.0%} of its markings in view on the grass"
+            else:
+                why = f"{on_lines(r.camera, image, view.bright, pitch) or 0.0:.0%} of its markings on paint along painted lines, not bright edges"
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")

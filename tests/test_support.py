@@ -298,3 +298,89 @@ def test_on_grass_undefined_with_few_markings_in_view(sample_frames):
 
     cam, _, size = sample_frames[0]
     assert on_grass(_turned(cam, 0.0, -40.0), grass_region(np.full((90, 160), 255, np.uint8)), size) is None
+
+
+# --- markings on painted lines, not along bright steps ------------------------------
+def _painted(cam: Camera, size, *, step: bool = False, pitch: PitchModel | None = None) -> np.ndarray:
+    """A frame of ``size`` seen by ``cam``: grass (BGR 60, 140, 70) with every
+    marking painted white at its true width (the pitch-plane polygon of each
+    sample's stripe), or with ``step`` no paint but the pitch beyond the far
+    touchline's centreline filled with sand (170, 190, 200): a bright step
+    where the far touchline is."""
+    import cv2
+
+    p = pitch or PitchModel()
+    W, H = size
+    v, u = np.mgrid[0:H, 0:W]
+    XY = cam.backproject_to_pitch(np.column_stack([u.ravel(), v.ravel()]).astype(float)).reshape(H, W, 2)
+    img = np.empty((H, W, 3), np.uint8)
+    img[:] = (60, 140, 70)
+    with np.errstate(invalid="ignore"):
+        if step:
+            img[XY[..., 1] > p.width / 2] = (170, 190, 200)
+            return img
+        X = marking_points(p, 0.05)[:, :2]
+        from scipy.spatial import cKDTree
+
+        d, _ = cKDTree(X).query(np.nan_to_num(XY.reshape(-1, 2), nan=1e6), distance_upper_bound=1.0)
+    img[(d <= p.line_width / 2).reshape(H, W)] = (235, 240, 240)
+    return cv2.GaussianBlur(img, (3, 3), 0)
+
+
+@pytest.mark.parametrize(
+    "centre, target, f",
+    [
+        ((0.0, -60.0, 20.0), (0.0, 0.0, 0.0), 1400.0),  # the main camera: far lines 2 px wide
+        # a penalty area's corner from 17 m: lines 8 px wide (read at 4.5 px
+        # from the crest whatever the width, 0.44)
+        ((-30.0, -35.0, 10.0), (-37.0, -20.0, 0.0), 2500.0),
+    ],
+    ids=["wide", "close"],
+)
+def test_the_true_cameras_markings_lie_on_painted_lines(centre, target, f):
+    from arstream.support import on_lines, white_mask
+    from cameras import looking_at
+
+    size = (1280, 720)
+    cam = looking_at(centre, target, f, size)
+    img = _painted(cam, size)
+    assert on_lines(cam, img, white_mask(img)) >= 0.95
+
+
+def test_markings_along_a_bright_step_are_not_on_lines():
+    # the far touchline on the edge of a bright sand track: line support backs
+    # it (the bright side is within 2 px), the profile across does not
+    from arstream.support import line_support, on_lines, white_mask
+    from cameras import looking_at
+
+    size = (1280, 720)
+    cam = looking_at((0.0, -60.0, 20.0), (0.0, 20.0, 0.0), 2400.0, size)
+    img = _painted(cam, size, step=True)
+    bright = white_mask(img)
+    assert line_support(cam, bright).n_supported >= 100
+    assert on_lines(cam, img, bright) < 0.1
+
+
+@pytest.mark.parametrize(
+    "image, bright, message",
+    [
+        (np.zeros((72, 128), np.uint8), np.zeros((72, 128), bool), r"image must be a BGR uint8 array \(H, W, 3\), got uint8 \(72, 128\)"),
+        (np.zeros((72, 128, 3), np.float32), np.zeros((72, 128), bool), r"image must be a BGR uint8 array \(H, W, 3\), got float32"),
+        (np.zeros((72, 128, 3), np.uint8), np.zeros((36, 64), bool), r"bright must be the frame's size \(72, 128\), got \(36, 64\)"),
+    ],
+)
+def test_on_lines_bad_input(image, bright, message):
+    from arstream.support import on_lines
+    from cameras import looking_at
+
+    with pytest.raises(ValueError, match=message):
+        on_lines(looking_at((0.0, -60.0, 20.0), (0.0, 0.0, 0.0), 140.0, (128, 72)), image, bright)
+
+
+def test_on_lines_undefined_without_markings_on_paint():
+    from arstream.support import on_lines
+    from cameras import looking_at
+
+    cam = looking_at((0.0, -60.0, 20.0), (0.0, 0.0, 0.0), 1400.0)
+    img = np.full((720, 1280, 3), 100, np.uint8)
+    assert on_lines(cam, img, np.zeros((720, 1280), bool)) is None
