@@ -267,18 +267,18 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
     circle (:func:`arstream.solve.cameras_along_circle`, at ``focals_per_width``
     times the width) all lay the circle and the halfway line on their
     pixels; what tells them apart is the rest of the pitch (the far
-    touchline, a penalty area). With ``refine``, each plausible member
-    (:func:`arstream.solve_lines.plausible`) is refined against the paint
-    pixels first (the focal grid is coarse: a member one step from the right
-    camera lays those markings a few px off their paint, and a longer lens
-    showing less of the pitch then scores more); of the distinct (refined)
-    members still plausible, the ``keep`` with the most
+    touchline, a penalty area). Of the plausible members
+    (:func:`arstream.solve_lines.plausible`), the ``keep`` with the most
     marking points on white paint net of those off it
     (``2 n_supported - n_inside`` of :func:`arstream.support.line_support`)
     are returned: a member with a longer lens shows the same circle with
     less of the pitch around it, so its share on paint can be as high while it
-    explains less of the frame. Returns a list of Camera (empty without an
-    ellipse and a line through it).
+    explains less of the frame. With ``refine``, also the ``keep`` best of the
+    members refined against the paint pixels (the distinct ones still
+    plausible): the focal grid is coarse, and a member one step from the
+    right camera lays those markings a few px off their paint, where a
+    longer lens showing less of the pitch scores more. Returns a list of
+    Camera (empty without an ellipse and a line through it).
     """
     W, H = size
     circles = [c for c in circles if getattr(c, "points", None) is not None and len(c.points) >= 6][:2]
@@ -309,21 +309,30 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
                 fam = cameras_along_circle(ell.conic, dl.line, ell.points, dl.points, principal_point, image_width=W, focals=W * np.asarray(focals_per_width), radius=radius)
             except ValueError:
                 continue
-            scored = []
-            for cam in fam:
-                if not plausible(cam.center, cam.focal, W, pitch)[0]:
-                    continue
-                if refine:
+            members = [cam for cam in fam if plausible(cam.center, cam.focal, W, pitch)[0]]
+            out.extend(_best_members(members, view, points, keep))
+            if refine:
+                refined = []
+                for cam in members:
                     try:
                         cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
                     except ValueError:
                         continue
-                if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for _, c in scored):
-                    s = line_support(cam, view.bright, points)
-                    scored.append((2 * s.n_supported - s.n_inside, cam))
-            scored.sort(key=lambda x: -x[0])
-            out.extend(cam for _, cam in scored[:keep])
+                    if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for c in refined):
+                        refined.append(cam)
+                out.extend(_best_members(refined, view, points, keep))
     return out
+
+
+def _best_members(cams: list[Camera], view: PaintView, points: np.ndarray, keep: int) -> list[Camera]:
+    """The ``keep`` cameras with the most marking points (``points``, (N, 3))
+    on the white paint (``view.bright``) net of those off it."""
+    scored = []
+    for cam in cams:
+        s = line_support(cam, view.bright, points)
+        scored.append((2 * s.n_supported - s.n_inside, cam))
+    scored.sort(key=lambda x: -x[0])
+    return [cam for _, cam in scored[:keep]]
 
 
 def _support(cam: Camera, index: LineIndex, size, model: ModelSamples, radius: float = 4.0) -> float:
