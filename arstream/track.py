@@ -57,7 +57,7 @@ from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
-from arstream.support import backed_support, backs, white_mask
+from arstream.support import ON_LINES, backed_support, backs, on_lines, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -910,7 +910,11 @@ class Tracker:
             info["support"] = sup
             info["spread"] = spread
             info["judged"] = cam
-            if self._passes(index, sup, spread, info.get("source")):
+            # (a fresh initialisation also with its markings on painted lines,
+            # not along bright steps: arstream.support.on_lines)
+            fresh = info.get("source") in ("init", "paint")
+            lines = on_lines(cam, self._image, self._bright[index], self.pitch) if fresh and sup is not None and backs(sup, spread, self.cfg.min_support) and index in self._bright else None
+            if self._passes(index, sup, spread, info.get("source"), lines):
                 self._unsupported = 0
             else:
                 self.stats["unsupported"] += 1
@@ -958,16 +962,19 @@ class Tracker:
         self._judged[id(cam)] = (index, cam, out)
         return out
 
-    def _passes(self, index: int, sup: float | None, spread: float, source: str | None) -> bool:
+    def _passes(self, index: int, sup: float | None, spread: float, source: str | None, lines: float | None = None) -> bool:
         """The test of a camera to output: line support at least ``min_support``
         with half its markings in view on paint (one long marking laid on one
-        painted line does not make a camera right). A tracked camera (not a
-        fresh initialisation) is still shown within ``max_coast`` frames of a
+        painted line does not make a camera right), and with ``lines`` (a
+        fresh initialisation's :func:`arstream.support.on_lines`)
+        :data:`arstream.support.ON_LINES` of its markings on paint on painted
+        lines, not along bright steps. A tracked camera (not a fresh
+        initialisation) is still shown within ``max_coast`` frames of a
         supported one at ``min_trusted``: blur in a fast pan hides the paint,
         not the camera."""
         if sup is None:
             return True
-        if backs(sup, spread, self.cfg.min_support):
+        if backs(sup, spread, self.cfg.min_support) and (lines is None or lines >= ON_LINES):
             self._supported_at = max(self._supported_at, index)
             return True
         return source not in ("init", "paint") and sup >= self.cfg.min_trusted and index - self._supported_at <= self.cfg.max_coast
