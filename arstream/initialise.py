@@ -30,7 +30,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "circle_view_cameras", "register_frame"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "circle_view_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -433,3 +433,33 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     if sup is not None:
         info["support"] = sup
     return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, info)
+
+
+def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None) -> CameraEstimate:
+    """``arstream register`` on one BGR frame: the camera of the frame (frame
+    pixels) or a "lost" estimate with the reason.
+
+    The picture inside black bars (:func:`arstream.imaging.active_area`) is
+    analysed on its own, with the frame's principal point (its centre), at
+    the analysis size (:class:`arstream.pipeline.stages.Analysis`: square
+    pixels for the solver, ``pixel_aspect`` mapped back), then
+    :func:`register_frame` with the picture; the camera is mapped back to the
+    whole frame.
+    """
+    from arstream.detect import detect
+    from arstream.imaging import active_area
+    from arstream.pipeline.stages import Analysis
+
+    H, W = image.shape[:2]
+    x0, y0, x1, y1 = active_area(image)
+    pic = image if (x0, y0, x1, y1) == (0, 0, W, H) else np.ascontiguousarray(image[y0:y1, x0:x1])
+    an = Analysis(x1 - x0, y1 - y0, None, pixel_aspect=pixel_aspect)
+    work = pic if an.full else cv2.resize(pic, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
+    # the frame's centre in the analysed picture's pixels (analysis u -> frame sx u + (sx - 1) / 2)
+    pp = np.array([((W - 1) / 2 - x0 - (an.sx - 1) / 2) / an.sx, ((H - 1) / 2 - y0 - (an.sy - 1) / 2) / an.sy])
+    est = register_frame(detect(work), (an.w, an.h), principal_point=pp, image=work, pitch=pitch)
+    if est.camera is None:
+        return est
+    cam = an.camera(est.camera)
+    cam = Camera(K=np.array([[1.0, 0.0, x0], [0.0, 1.0, y0], [0.0, 0.0, 1.0]]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+    return CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, est.info)

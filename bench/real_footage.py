@@ -32,12 +32,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from arstream.detect import detect  # noqa: E402
 from arstream.evaluate import frame_error  # noqa: E402
 from arstream.evaluate_video import draw_overlay, evaluate_video  # noqa: E402
-from arstream.initialise import register_frame  # noqa: E402
+from arstream.initialise import register_image  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
-from arstream.pipeline.stages import Analysis  # noqa: E402
 from arstream.support import bright_mask, line_support, marking_points  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
@@ -92,11 +90,8 @@ def still_rows(sheets: Path | None) -> list[dict]:
 
 def _register(img: np.ndarray, aspect: float = 1.0, pitch: PitchModel | None = None):
     """``arstream register`` on one BGR frame: (estimate, camera of the frame or None)."""
-    H, W = img.shape[:2]
-    an = Analysis(W, H, None, pixel_aspect=aspect)
-    work = img if an.full else cv2.resize(img, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
-    est = register_frame(detect(work), (an.w, an.h), image=work, pitch=pitch)
-    return est, (an.camera(est.camera) if est.camera is not None else None)
+    est = register_image(img, pixel_aspect=aspect, pitch=pitch)
+    return est, est.camera
 
 
 def clip_frame_rows(clips, pitches: dict) -> list[dict]:

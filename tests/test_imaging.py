@@ -85,3 +85,42 @@ def test_grey_thumbnail_of_the_luma_plane_matches_the_bgr_frames():
     assert np.abs(grey_thumbnail(Y) - b).max() > 10  # (the video range is not full range)
     # a frame smaller than the thumbnail keeps its size
     assert grey_thumbnail(np.zeros((20, 30), np.uint8)).shape == (20, 30)
+
+
+# --- the picture inside black bars -------------------------------------------------
+def _with_bars(top=0, bottom=0, left=0, right=0, size=(160, 90), noise=0):
+    rng = np.random.default_rng(3)
+    W, H = size
+    img = rng.integers(40, 220, (H, W, 3)).astype(np.uint8)
+    img[:top] = 0
+    img[H - bottom :] = 0
+    img[:, :left] = 0
+    img[:, W - right :] = 0
+    if noise:
+        img = np.clip(img.astype(int) + rng.integers(0, noise + 1, img.shape), 0, 255).astype(np.uint8)
+    return img
+
+
+@pytest.mark.parametrize(
+    "bars, expect",
+    [
+        ({}, (0, 0, 160, 90)),
+        ({"top": 11, "bottom": 11}, (0, 11, 160, 79)),  # letterbox
+        ({"left": 20, "right": 20}, (20, 0, 140, 90)),  # pillarbox
+        ({"top": 6, "bottom": 6, "left": 10, "right": 10}, (10, 6, 150, 84)),  # a window box
+        ({"left": 20, "right": 20, "noise": 20}, (20, 0, 140, 90)),  # bars with compression noise
+        ({"left": 2, "right": 2}, (0, 0, 160, 90)),  # a thin black edge is a border, not a bar
+        ({"left": 70, "right": 70}, (0, 0, 160, 90)),  # a dark frame, not bars
+    ],
+)
+def test_active_area(bars, expect):
+    from arstream.imaging import active_area
+
+    assert active_area(_with_bars(**bars)) == expect
+
+
+def test_active_area_bad_input():
+    from arstream.imaging import active_area
+
+    with pytest.raises(ValueError, match=r"image must be a non-empty uint8 array \(H, W\) or \(H, W, 3\), got float32 \(9, 16, 3\)"):
+        active_area(np.zeros((9, 16, 3), np.float32))

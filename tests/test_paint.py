@@ -480,6 +480,27 @@ def test_a_still_is_not_drawn_along_the_edges_of_a_running_track():
     assert est.status == "lost" or _distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280, est.info
 
 
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+def test_a_still_in_a_pillarbox_is_registered_from_its_picture():
+    # world_cup_2006 with black bars over the left and right eighths (a 4:3
+    # picture in a 16:9 frame): each bar's edge is a bright step down the
+    # frame that the paint's lines take for a marking, and the still was
+    # lost; the picture inside the bars (arstream.imaging.active_area) is
+    # registered with the frame's principal point and mapped back
+    from arstream.imaging import active_area
+    from arstream.initialise import register_image
+
+    img = cv2.imread(str(SHARED / "stills" / "world_cup_2006.png"))
+    H, W = img.shape[:2]
+    img[:, : W // 8] = 0
+    img[:, W - W // 8 :] = 0
+    assert active_area(img) == (W // 8, 0, W - W // 8, H)
+    est = register_image(img)
+    assert est.status == "ok", est.info
+    ref, pitch, _ = _reference("world_cup_2006")
+    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+
+
 def test_paint_view_tracks_pixels_without_finding_lines_first():
     cam, img = _penalty_view((640, 360))
     v = paint_view(img, detect(img))

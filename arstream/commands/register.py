@@ -35,22 +35,15 @@ def register(subparsers) -> None:
 def run(args) -> int:
     import cv2
 
-    from arstream.detect import detect
     from arstream.evaluate_video import draw_overlay
     from arstream.framein import read_frame
-    from arstream.initialise import register_frame
-    from arstream.pipeline.stages import Analysis
+    from arstream.initialise import register_image
     from geometry.pitch import PitchModel
 
     image = read_frame(args.input, args.frame)
-    H, W = image.shape[:2]
     pitch = PitchModel(*args.pitch) if args.pitch else PitchModel()
-    # square pixels for the solver (an anamorphic or resized frame is stretched), mapped back after
-    an = Analysis(W, H, None, pixel_aspect=args.pixel_aspect)
-    work = image if an.full else cv2.resize(image, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
-    est = register_frame(detect(work), (an.w, an.h), image=work, pitch=pitch)
-    if est.camera is not None:
-        est = type(est)(est.frame, est.pts, est.status, an.camera(est.camera), est.confidence, est.info)
+    # (square pixels for the solver, the picture inside any black bars; mapped back to the frame)
+    est = register_image(image, pixel_aspect=args.pixel_aspect, pitch=pitch)
     rec = est.to_record()
     rec.pop("frame", None)
     rec.pop("pts", None)
