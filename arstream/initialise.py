@@ -290,7 +290,7 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
         if not any(abs(dl.line[:2] @ o.line[:2]) > np.cos(np.radians(1.0)) and abs(dl.line @ np.append(o.endpoints.mean(axis=0), 1.0)) < 0.005 * W for o in cands):
             cands.append(dl)
     points = marking_points(pitch)
-    model = ModelSamples.from_pitch(pitch, 0.5)
+    model = ModelSamples.from_pitch(pitch, 0.5) if refine else None
     radius = pitch["centre_circle"].radius
     out: list[Camera] = []
     pairs = 0
@@ -397,13 +397,28 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             pass
     sup = None
     if image is not None:
-        # (a still must show enough markings to be judged: an undefined support is no backing)
-        def backed(cam, sup, spread):
-            # (and its markings on the grass: a long lens's camera too far away
-            # lays the far touchline on the stands, whose seats back it)
-            # (and on painted lines, not along bright steps: a track's or the
-            # boards' edges back a marking as a line does)
-            return sup is not None and backs(sup, spread, min_support) and (view.grass is None or (on_grass(cam, view.grass, size, pitch) or 1.0) >= ON_GRASS) and (on_lines(cam, image, view.bright, pitch) or 1.0) >= ON_LINES
+        verdicts: dict[int, str | None] = {}
+
+        def unbacked(cam, sup, spread) -> str | None:
+            """Why the frame's paint does not back ``cam`` (None: it does); judged once a camera."""
+            if id(cam) not in verdicts:
+                why = None
+                # (a still must show enough markings to be judged: an undefined support is no backing)
+                if sup is None or not backs(sup, spread, min_support):
+                    why = f"{spread:.0%} of its markings in view on paint"
+                # (its markings on the grass: a long lens's camera too far away
+                # lays the far touchline on the stands, whose seats back it)
+                elif view.grass is not None and (g := on_grass(cam, view.grass, size, pitch)) is not None and g < ON_GRASS:
+                    why = f"{g:.0%} of its markings in view on the grass"
+                # (and on painted lines, not along bright steps: a track's or
+                # the boards' edges back a marking as a line does)
+                elif (ln := on_lines(cam, image, view.bright, pitch)) is not None and ln < ON_LINES:
+                    why = f"{ln:.0%} of its markings on paint along painted lines, not bright edges"
+                verdicts[id(cam)] = why
+            return verdicts[id(cam)]
+
+        def backed(cam, sup, spread) -> bool:
+            return unbacked(cam, sup, spread) is None
 
         view = paint_view(image, detections)
         sup, spread = (None, 1.0) if r is None else backed_support(r.camera, view.bright, pitch)
@@ -418,14 +433,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 # support while it leaves most of the frame's paint unexplained)
                 if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or paint_score(rp.camera, sp or 0.0, view, size, model) > paint_score(r.camera, sup or 0.0, view, size, model) + 0.02:
                     r, sup, spread = rp, sp, spread_p
-        if r is not None and not backed(r.camera, sup, spread):
-            g = None if view.grass is None else on_grass(r.camera, view.grass, size, pitch)
-            if sup is None or not backs(sup, spread, min_support):
-                why = f"{spread:.0%} of its markings in view on paint"
-            elif g is not None and g < ON_GRASS:
-                why = f"{g:.0%} of its markings in view on the grass"
-            else:
-                why = f"{on_lines(r.camera, image, view.bright, pitch) or 0.0:.0%} of its markings on paint along painted lines, not bright edges"
+        if r is not None and (why := unbacked(r.camera, sup, spread)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
@@ -455,11 +463,11 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     pic = image if (x0, y0, x1, y1) == (0, 0, W, H) else np.ascontiguousarray(image[y0:y1, x0:x1])
     an = Analysis(x1 - x0, y1 - y0, None, pixel_aspect=pixel_aspect)
     work = pic if an.full else cv2.resize(pic, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
-    # the frame's centre in the analysed picture's pixels (analysis u -> frame sx u + (sx - 1) / 2)
-    pp = np.array([((W - 1) / 2 - x0 - (an.sx - 1) / 2) / an.sx, ((H - 1) / 2 - y0 - (an.sy - 1) / 2) / an.sy])
+    # analysis pixels -> frame pixels; the frame's centre is the principal point
+    F = np.array([[1.0, 0.0, x0], [0.0, 1.0, y0], [0.0, 0.0, 1.0]]) @ an.S
+    pp = np.linalg.solve(F, [(W - 1) / 2, (H - 1) / 2, 1.0])[:2]
     est = register_frame(detect(work), (an.w, an.h), principal_point=pp, image=work, pitch=pitch)
     if est.camera is None:
         return est
-    cam = an.camera(est.camera)
-    cam = Camera(K=np.array([[1.0, 0.0, x0], [0.0, 1.0, y0], [0.0, 0.0, 1.0]]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+    cam = Camera(K=F @ est.camera.K, R=est.camera.R, t=est.camera.t, dist=est.camera.dist)
     return CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, est.info)

@@ -79,6 +79,7 @@ __all__ = [
     "bright_mask",
     "white_mask",
     "marking_points",
+    "marking_normals",
     "marking_spread",
     "backed_support",
     "backs",
@@ -240,10 +241,14 @@ def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:
     -------
     (H, W) bool
     """
+    return bright_mask(_darkest(image), reach=reach)
+
+
+def _darkest(image: np.ndarray) -> np.ndarray:
+    """The darkest colour channel of a BGR frame (H, W): white paint raises all three."""
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image).__name__)} {getattr(image, 'shape', '')}")
-    low = cv2.min(cv2.min(image[:, :, 0], image[:, :, 1]), image[:, :, 2])
-    return bright_mask(low, reach=reach)
+    return cv2.min(cv2.min(image[:, :, 0], image[:, :, 1]), image[:, :, 2])
 
 
 @functools.lru_cache(maxsize=16)
@@ -451,6 +456,36 @@ def on_grass(camera: Camera, region: np.ndarray, size: tuple[int, int], pitch: P
     return float(np.count_nonzero(region[ij[:, 1], ij[:, 0]])) / n
 
 
+def _tangents(P: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(N, 2) central differences of consecutive points ``P`` (N, 2) of the same
+    marking (``ids``, :func:`_marking_ids`; one-sided at a marking's ends)."""
+    nxt = np.r_[ids[1:] == ids[:-1], False][:, None]
+    prv = np.r_[False, ids[1:] == ids[:-1]][:, None]
+    return np.where(nxt, np.r_[P[1:], P[-1:]], P) - np.where(prv, np.r_[P[:1], P[:-1]], P)
+
+
+@functools.lru_cache(maxsize=16)
+def _marking_normals(length: float, width: float, line_width: float, spacing: float) -> np.ndarray:
+    X = _marking_points(length, width, line_width, spacing)
+    t = _tangents(X[:, :2], _marking_ids(length, width, line_width, spacing))
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
+    out = np.column_stack([-t[:, 1], t[:, 0], np.zeros(len(t))])
+    out.setflags(write=False)
+    return out
+
+
+def marking_normals(pitch: PitchModel | None = None, spacing: float = SPACING) -> np.ndarray:
+    """Unit normals (in the pitch plane) of the markings at :func:`marking_points`.
+
+    Returns
+    -------
+    (N, 3) float64, pitch frame (Z = 0), the rows of ``marking_points(pitch,
+    spacing)``; read-only, cached per pitch size and spacing.
+    """
+    pitch = pitch or PitchModel()
+    return _marking_normals(pitch.length, pitch.width, pitch.line_width, float(spacing))
+
+
 def on_lines(camera: Camera, image: np.ndarray, bright: np.ndarray, pitch: PitchModel | None = None, *, contrast: float = LINE_CONTRAST) -> float | None:
     """Share of a camera's marking points on white paint that lie on a painted
     *line*: a crest brighter than the picture on both of its sides.
@@ -487,31 +522,20 @@ def on_lines(camera: Camera, image: np.ndarray, bright: np.ndarray, pitch: Pitch
     float in [0, 1], or None with fewer than :data:`MIN_POINTS` marking points
     on ``bright`` far enough inside the image to be read across
     """
-    if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"image must be a BGR uint8 array (H, W, 3), got {getattr(image, 'dtype', type(image).__name__)} {getattr(image, 'shape', '')}")
-    H, W = image.shape[:2]
+    low = _darkest(image)
+    H, W = low.shape
     if bright.shape != (H, W):
         raise ValueError(f"bright must be the frame's size {(H, W)}, got {bright.shape}")
     pitch = pitch or PitchModel()
     X = _marking_points(pitch.length, pitch.width, pitch.line_width, SPACING)
     ids = _marking_ids(pitch.length, pitch.width, pitch.line_width, SPACING)
-    # the tangent of each marking at each point (central differences within a
-    # marking), in the pitch and in the picture; the pitch's normal across it
-    same_next = np.r_[ids[1:] == ids[:-1], False][:, None]
-    same_prev = np.r_[False, ids[1:] == ids[:-1]][:, None]
-
-    def tangent(P):
-        return np.where(same_next, np.r_[P[1:], P[-1:]], P) - np.where(same_prev, np.r_[P[:1], P[:-1]], P)
-
-    tp = tangent(X[:, :2])
-    tp /= np.maximum(np.linalg.norm(tp, axis=1, keepdims=True), 1e-12)
-    Xw = X.copy()
-    Xw[:, :2] += pitch.line_width * np.column_stack([-tp[:, 1], tp[:, 0]])
     with np.errstate(invalid="ignore", divide="ignore"):
         uv = camera.project(X)
-        ti = tangent(uv)
+        ti = _tangents(uv, ids)
         n = np.column_stack([-ti[:, 1], ti[:, 0]]) / np.linalg.norm(ti, axis=1, keepdims=True)
-        width = np.minimum(np.abs(np.sum((camera.project(Xw) - uv) * n, axis=1)), 20.0)
+        # the line's projected width: its centreline to its edge in the pitch, across the picture's marking
+        edge = X + pitch.line_width * marking_normals(pitch)
+        width = np.minimum(np.abs(np.sum((camera.project(edge) - uv) * n, axis=1)), 20.0)
         side = width / 2 + max(3.5, 4.5 * W / 1280)
         reach = np.ceil(2 + width / 2)
         pad = side + reach + 1
@@ -523,7 +547,6 @@ def on_lines(camera: Camera, image: np.ndarray, bright: np.ndarray, pitch: Pitch
     if np.count_nonzero(on) < MIN_POINTS:
         return None
     uv, n, side, reach = uv[on], n[on], side[on], reach[on]
-    low = cv2.min(cv2.min(image[:, :, 0], image[:, :, 1]), image[:, :, 2])
 
     def read(P):
         p = np.floor(P + 0.5).astype(np.intp)

@@ -94,30 +94,36 @@ def _register(img: np.ndarray, aspect: float = 1.0, pitch: PitchModel | None = N
     return est, est.camera
 
 
+def reference_frames(name: str):
+    """(frame index, BGR frame, reference Camera, PitchModel) of each frame of
+    the shared clip ``name`` that has a reference camera, in order."""
+    import av
+
+    refs = references(name)
+    with av.open(str(SHARED / "clips" / f"{name}.mp4")) as c:
+        for k, frame in enumerate(c.decode(video=0)):
+            if k > max(refs):
+                break
+            if k in refs:
+                yield k, frame.to_ndarray(format="bgr24"), *refs[k]
+
+
 def clip_frame_rows(clips, pitches: dict) -> list[dict]:
     """Every reference frame of each clip registered on its own, as a still:
     how many get a camera, and how many of those are within 5 px of the
     reference (a camera further off is a wrong one)."""
-    import av
-
     rows = []
     for name in clips:
         refs = references(name)
         pitch = PitchModel(*pitches[name]) if name in pitches else None
         got, near, dists, t0 = 0, 0, [], time.perf_counter()
-        with av.open(str(SHARED / "clips" / f"{name}.mp4")) as c:
-            for k, frame in enumerate(c.decode(video=0)):
-                if k > max(refs):
-                    break
-                if k not in refs:
-                    continue
-                img = frame.to_ndarray(format="bgr24")
-                est, cam = _register(img, pitch=pitch)
-                if cam is not None:
-                    got += 1
-                    d = distance_1280(refs[k][0], cam, (img.shape[1], img.shape[0]), refs[k][1])
-                    dists.append(d)
-                    near += d <= 5.0
+        for k, img, ref, ref_pitch in reference_frames(name):
+            est, cam = _register(img, pitch=pitch)
+            if cam is not None:
+                got += 1
+                d = distance_1280(ref, cam, (img.shape[1], img.shape[0]), ref_pitch)
+                dists.append(d)
+                near += d <= 5.0
         rows.append({"item": name + (f" (--pitch {pitches[name][0]:g}x{pitches[name][1]:g})" if name in pitches else ""), "frames": len(refs), "registered": got, "within_5px": near, "distances": dists, "seconds": (time.perf_counter() - t0) / len(refs)})
     return rows
 

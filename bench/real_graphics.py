@@ -39,7 +39,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from arstream.evaluate_video import draw_overlay  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
-from real_footage import CLIPS, EPL_ASPECT, SHARED, STILLS, _register, distance_1280, references  # noqa: E402
+from geometry.pitch import PitchModel  # noqa: E402
+from real_footage import CLIPS, EPL_ASPECT, SHARED, STILLS, _register, distance_1280, reference_frames, references  # noqa: E402
 
 #: pitch sizes of the clips whose pitch is not 105 x 68 (bench/real_footage.py --pitch)
 PITCHES = {"artificial_turf_multisport": (100.0, 68.0)}
@@ -134,8 +135,6 @@ VARIANTS = {
 def items(prefixes=None):
     """(name, BGR frame, pixel aspect, reference Camera, PitchModel) of every
     frame with a reference camera."""
-    import av
-
     out = []
     for s in STILLS:
         img = cv2.imread(str(SHARED / "stills" / f"{s}.png"))
@@ -144,21 +143,17 @@ def items(prefixes=None):
     for k, (cam, pitch) in sorted(references("sequence_epl").items()):
         out.append((f"sequence_epl {k:02d}", cv2.imread(str(SHARED / "sequence-epl" / f"frame_{k:02d}.jpg")), EPL_ASPECT, cam, pitch))
     for name in CLIPS:
-        refs = references(name)
-        with av.open(str(SHARED / "clips" / f"{name}.mp4")) as c:
-            for k, frame in enumerate(c.decode(video=0)):
-                if k > max(refs):
-                    break
-                if k in refs:
-                    out.append((f"{name} {k:03d}", frame.to_ndarray(format="bgr24"), 1.0, *refs[k]))
+        out += [(f"{name} {k:03d}", img, 1.0, cam, pitch) for k, img, cam, pitch in reference_frames(name)]
     if prefixes:
         out = [it for it in out if any(it[0].startswith(p) for p in prefixes)]
     return out
 
 
 def scaled(cam: Camera, sx: float, sy: float) -> Camera:
-    """The camera of the same frame scaled by (sx, sy)."""
-    return Camera(K=np.diag([sx, sy, 1.0]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+    """The camera of the same frame resized by (sx, sy) (pixel centres at
+    integers: pixel ``u`` goes to ``sx u + (sx - 1) / 2``, as OpenCV resizes)."""
+    S = np.array([[sx, 0.0, (sx - 1) / 2], [0.0, sy, (sy - 1) / 2], [0.0, 0.0, 1.0]])
+    return Camera(K=S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
 
 
 def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -> list[dict]:
@@ -173,8 +168,6 @@ def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -
             H, W = im.shape[:2]
             truth = scaled(ref, W / W0, H / H0)
             item = name.split(" ")[0]
-            from geometry.pitch import PitchModel
-
             est, cam = _register(im, aspect, PitchModel(*PITCHES[item]) if item in PITCHES else None)
             d = float("nan")
             if cam is not None:

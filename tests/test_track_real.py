@@ -174,16 +174,12 @@ def _banded(cam, size, band: float):
     track's or the boards' edge), softened by a 3 x 3 Gaussian as video is."""
     from scipy.spatial import cKDTree
 
-    from arstream.support import _marking_ids, _marking_points
-    from geometry.pitch import PitchModel
+    import cv2
 
-    p = PitchModel()
-    X = np.asarray(_marking_points(p.length, p.width, p.line_width, 0.05))[:, :2]
-    ids = _marking_ids(p.length, p.width, p.line_width, 0.05)
-    t = np.gradient(X, axis=0)
-    t[np.r_[ids[1:] != ids[:-1], False]] = t[np.r_[False, ids[1:] != ids[:-1]]]  # (a marking's last point: its neighbour's tangent)
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
-    n = np.column_stack([-t[:, 1], t[:, 0]])
+    from arstream.support import marking_normals, marking_points
+
+    X = marking_points(spacing=0.05)[:, :2]
+    n = marking_normals(spacing=0.05)[:, :2]
     W, H = size
     v, u = np.mgrid[0:H, 0:W]
     XY = cam.backproject_to_pitch(np.column_stack([u.ravel(), v.ravel()]).astype(float))
@@ -191,8 +187,6 @@ def _banded(cam, size, band: float):
     img = np.empty((H, W, 3), np.uint8)
     img[:] = (60, 140, 70)
     img[(d <= band / 2).reshape(H, W)] = (200, 215, 215)
-    import cv2
-
     return cv2.GaussianBlur(img, (3, 3), 0)
 
 
