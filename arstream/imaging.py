@@ -126,6 +126,10 @@ BAR_LEVEL = 32
 #: least width of a bar, as a share of the frame's side: thinner black edges
 #: are a border, which the detectors already leave out
 MIN_BAR = 0.02
+#: rows (columns) past a bar still taken for it when no brighter than twice
+#: :data:`BAR_LEVEL`: the bar's edge rung by compression (a letterbox in a
+#: synthetic clip at crf 16: 7, 7, then 45, then 231 levels)
+EDGE_ROWS = 2
 
 
 def active_area(image: np.ndarray, *, level: int = BAR_LEVEL, min_bar: float = MIN_BAR) -> tuple[int, int, int, int]:
@@ -157,7 +161,15 @@ def active_area(image: np.ndarray, *, level: int = BAR_LEVEL, min_bar: float = M
     def run(profile: np.ndarray, n: int) -> int:
         dark = profile <= level
         k = int(np.argmin(dark)) if not dark.all() else len(dark)
-        return k if k >= max(1, int(round(min_bar * n))) else 0
+        if k < max(1, int(round(min_bar * n))):
+            return 0
+        # (the bar's edge: compression rings a row or two past it, darker than the
+        # picture but above the level; they belong to the bar)
+        for _ in range(EDGE_ROWS):
+            if k >= len(profile) or profile[k] > 2 * level:
+                break
+            k += 1
+        return k
 
     rows = np.percentile(top, 99, axis=1)
     cols = np.percentile(top, 99, axis=0)

@@ -30,7 +30,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "circle_view_cameras", "register_frame", "register_image"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "paint_verdict", "circle_view_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -179,7 +179,8 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     ``reach``, :func:`arstream.support.white_mask`) and the grass region of
     one BGR frame (the pitch region from ``detections``)."""
     H, W = image.shape[:2]
-    region = cv2.dilate(detections.grass_mask, np.ones((3, 3), np.uint8)) if detections is not None and detections.grass_mask is not None else None
+    grass = getattr(detections, "grass_mask", None)
+    region = cv2.dilate(grass, np.ones((3, 3), np.uint8)) if grass is not None else None
     mask = paint_mask(image, region)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
@@ -360,6 +361,31 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
+def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7) -> str | None:
+    """Why a frame's paint does not back a camera (None: it does), the test a
+    camera without temporal help must pass (:func:`register_frame`; the
+    tracker's fresh cameras, :class:`arstream.track.Tracker`).
+
+    ``support``, ``spread``: the camera's line support on the frame's white
+    paint and the share of its markings in view on paint
+    (:func:`arstream.support.backed_support`). Backed: a support of at least
+    ``min_support`` with half its markings on paint (:func:`arstream.support.backs`;
+    an undefined support, too few markings in view, is no backing); its
+    markings in view on the grass (:data:`arstream.support.ON_GRASS`: a long
+    lens's camera too far away lays the far touchline on the stands, whose
+    seats back it); and on painted lines, not along bright steps
+    (:data:`arstream.support.ON_LINES`: a track's or the boards' edges back
+    a marking as a line does).
+    """
+    if support is None or not backs(support, spread, min_support):
+        return f"{spread:.0%} of its markings in view on paint"
+    if view.grass is not None and (g := on_grass(camera, view.grass, size, pitch)) is not None and g < ON_GRASS:
+        return f"{g:.0%} of its markings in view on the grass"
+    if (ln := on_lines(camera, view.image, view.bright, pitch)) is not None and ln < ON_LINES:
+        return f"{ln:.0%} of its markings on paint along painted lines, not bright edges"
+    return None
+
+
 def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
@@ -402,19 +428,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         def unbacked(cam, sup, spread) -> str | None:
             """Why the frame's paint does not back ``cam`` (None: it does); judged once a camera."""
             if id(cam) not in verdicts:
-                why = None
-                # (a still must show enough markings to be judged: an undefined support is no backing)
-                if sup is None or not backs(sup, spread, min_support):
-                    why = f"{spread:.0%} of its markings in view on paint"
-                # (its markings on the grass: a long lens's camera too far away
-                # lays the far touchline on the stands, whose seats back it)
-                elif view.grass is not None and (g := on_grass(cam, view.grass, size, pitch)) is not None and g < ON_GRASS:
-                    why = f"{g:.0%} of its markings in view on the grass"
-                # (and on painted lines, not along bright steps: a track's or
-                # the boards' edges back a marking as a line does)
-                elif (ln := on_lines(cam, image, view.bright, pitch)) is not None and ln < ON_LINES:
-                    why = f"{ln:.0%} of its markings on paint along painted lines, not bright edges"
-                verdicts[id(cam)] = why
+                verdicts[id(cam)] = paint_verdict(cam, sup, spread, view, size, pitch, min_support)
             return verdicts[id(cam)]
 
         def backed(cam, sup, spread) -> bool:

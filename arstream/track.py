@@ -54,10 +54,10 @@ from scipy.linalg import block_diag
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
-from arstream.initialise import INIT_ACCEPT, view_supports, initialise_camera, initialise_from_paint, paint_view
+from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, view_supports
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
-from arstream.support import ON_LINES, backed_support, backs, on_lines, white_mask
+from arstream.support import ON_GRASS, ON_LINES, backed_support, backs, on_lines, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -79,6 +79,10 @@ class TrackerConfig:
     centre_frames: int = 5  # confident free-pose frames before the tripod centre is frozen
     centre_sigma: float = 0.6  # largest centre std (m) of a frame used for the tripod centre
     centre_break: float = 3.0  # metres: a free pose this far from the tripod centre breaks it
+    # frames within which two fresh cameras far from the tripod centre, with no shot
+    # cut seen since it was set, must agree (centres within centre_break) before
+    # the centre is given up for them (Tracker._another_camera)
+    other_within: int = 50
     centre_every: int = 10  # real frames: frames between free-pose checks of the frozen centre ...
     centre_move: float = 1.0  # ... which moves it when its more certain views say so by more than this (m)
     centre_sure: float = 0.85  # ... or when a free pose lays this share of the markings in view near a line pixel ...
@@ -255,6 +259,8 @@ class Tracker:
         self.cfg = config or TrackerConfig()
         self.model = ModelSamples.from_pitch(self.pitch, 0.5)
         self.centre: np.ndarray | None = None
+        self._cut_seen = False  # a shot cut since the tripod centre was set
+        self._other: tuple[int, np.ndarray] | None = None  # (frame, centre) of the last fresh camera far from it
         self._centres: list[tuple[float, np.ndarray]] = []  # (largest sd, centre) of free-pose measurements
         self._centre_check_at = -(10**9)  # the frame the frozen centre was last checked on (real frames)
         self._centre_views: deque = deque(maxlen=self.cfg.centre_recall)  # (line index, camera, confidence) of the frames checked last
@@ -289,7 +295,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -468,6 +474,7 @@ class Tracker:
         cut = self._is_cut(image, thumbnail)
         if cut:
             self.stats["cuts"] += 1
+            self._cut_seen = True
             self.reset()
         if det is None or not getattr(det, "pitch_visible", True) or len(det.line_points) < 30:
             self.reset()
@@ -557,8 +564,14 @@ class Tracker:
                 self._swept_prev = True
                 swept_rates = self._kf.x[1::2, 0].copy()
                 self._kf = None  # re-anchored: restart the filter from this measurement
+        rival = None  # the paint initialiser's (refinement, support), when it beat the detector's camera
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
+            if r is not None and r.confidence >= self.cfg.init_accept and image is not None:
+                view = view or self._paint_view(index, image, det)
+                rival = self._paint_rival(index, r, view, det)
+                if rival is not None:
+                    r = None  # (taken as the paint initialiser's camera below)
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
@@ -571,8 +584,10 @@ class Tracker:
                         rc = None
                     if rc is not None and rc.confidence >= r.confidence - 0.05:
                         meas = rc
+                    elif self._another_camera(index, r.camera):
+                        self.reset(keep_centre=False)
                     else:
-                        self.reset(keep_centre=False)  # another camera
+                        meas = None
                 elif self.centre is not None:
                     try:
                         rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal))
@@ -582,12 +597,12 @@ class Tracker:
                         pass
                 if self._kf is not None and pred_cam is not None:
                     self._kf = None  # re-anchored: restart the filter from this measurement
-        if meas is None and image is not None and index - self._paint_at >= self.cfg.paint_every:
+        if meas is None and image is not None and (rival is not None or index - self._paint_at >= self.cfg.paint_every):
             # real frames: faint, thin lines the ridge detector misses; straight
             # lines of the white paint, scored against the frame (costly: not every frame)
             self._paint_at = index
             view = view or self._paint_view(index, image, det)
-            r, sup = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
+            r, sup = rival or initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
             if r is not None and sup >= self.cfg.paint_accept:
                 meas, source = r, "paint"
                 self.stats["paint_inits"] += 1
@@ -605,7 +620,10 @@ class Tracker:
                     if sc is not None and sc >= min(sup, self.cfg.paint_accept) - 0.05:
                         meas = rc
                     elif np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
-                        self.reset(keep_centre=False)  # another camera
+                        if self._another_camera(index, r.camera):
+                            self.reset(keep_centre=False)
+                        else:
+                            meas = None
         if meas is not None and not plausible(meas.camera.center, meas.camera.focal, self.size[0], self.pitch)[0]:
             # no main broadcast camera (a refinement that slid along one line to a
             # camera on the grass or a fisheye): no measurement
@@ -1050,10 +1068,65 @@ class Tracker:
         (:func:`arstream.solve.k1_observable`: a refinement there fits noise)."""
         return (self.k1 is None or self.k1 != 0.0) and (not self._paint or k1_observable(focal, self.size))
 
+    def _paint_rival(self, index: int, r: Refinement, view, det) -> tuple[Refinement, float] | None:
+        """The paint initialiser's camera and its line support where it should
+        replace the camera ``r`` initialised from the detector's lines (the
+        judgement :func:`arstream.initialise.register_frame` makes for a still):
+        when the frame's paint does not back ``r``
+        (:func:`arstream.initialise.paint_verdict`) or backs it with less than
+        :data:`arstream.initialise.PAINT_CHECK`, the paint initialiser runs as
+        for a still (the centre circle's family refined, hypotheses off the
+        grass or along bright steps left out), and its camera wins when the
+        paint backs it and not ``r``, or backs it more by
+        :func:`arstream.initialise.paint_score`. Else None.
+
+        The ridge detector's lines on a real frame can fit a member of the
+        centre circle's depth-zoom family (twice as far, twice the focal
+        length) that lays the circle and the halfway line right and the rest
+        on other lines: the artificial-turf clip pillarboxed (12.5 %) started
+        on one 850 px off its reference and kept it.
+        """
+        sup, spread = self._support(index, r.camera, view.image)
+        backed = paint_verdict(r.camera, sup, spread, view, self.size, self.pitch, self.cfg.min_support) is None
+        if backed and sup >= PAINT_CHECK:
+            return None
+        self._paint_at = index
+        rp, sp = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
+        if rp is None or sp < self.cfg.paint_accept:
+            return None
+        sp2, spread_p = self._support(index, rp.camera, view.image)
+        if paint_verdict(rp.camera, sp2, spread_p, view, self.size, self.pitch, self.cfg.min_support) is not None:
+            return None
+        if not backed or paint_score(rp.camera, sp2, view, self.size, self.model) > paint_score(r.camera, sup, view, self.size, self.model):
+            self.stats["paint_rivals"] += 1
+            return rp, sp
+        return None
+
+    def _another_camera(self, index: int, cam: Camera) -> bool:
+        """Is a fresh camera far from the tripod centre, which the frozen centre
+        does not fit, another camera (True: give the centre up for it)?
+
+        After a shot cut, yes: the director cut to another camera. Within the
+        shot the main camera stays on its tripod, and such a camera is far
+        more often a wrong initialisation (a letterboxed artificial-turf clip:
+        a camera 48 m along the touchline with 4 times the focal length, drawn
+        on 45 frames) than a camera moved: it is believed when a second one
+        agrees with it (centres within ``centre_break``) within
+        ``other_within`` frames; till then it is no measurement."""
+        prev, self._other = self._other, (index, cam.center)
+        if self._cut_seen:
+            return True
+        if prev is not None and index - prev[0] <= self.cfg.other_within and np.linalg.norm(prev[1] - cam.center) <= self.cfg.centre_break:
+            self.stats["other_cameras"] += 1
+            return True
+        self.stats["other_refused"] += 1
+        return False
+
     def _learn(self, r: Refinement) -> None:
         """Update the tripod centre and the lens distortion from a confident measurement."""
         if self.centre is None and self._add_centre(r) and len(self._centres) >= self.cfg.centre_frames:
             self.centre = self._best_centre()
+            self._cut_seen = False
             if self._paint and self._kf is not None:
                 # real frames: keep the filter's rates (a pan goes on); its angles
                 # were about each frame's own centre: widen them, not restart

@@ -55,6 +55,39 @@ def _open(input, *, format=None, options=None, threads: bool = True) -> VideoSou
     return VideoSource(input, format=format, options=options, threads=threads)
 
 
+#: the clip's first frames whose pictures inside black bars decide the one
+#: that detection and tracking analyse (:func:`_picture_area`): every
+#: :data:`PEEK_EVERY`-th of the first :data:`PEEK_FRAMES`
+PEEK_FRAMES = 25
+PEEK_EVERY = 6
+
+
+def _picture_area(input, *, threads: bool = True) -> tuple[int, int, int, int] | None:
+    """The picture inside black bars (:func:`arstream.imaging.active_area`) of
+    a clip's first frames: the smallest box holding each sampled frame's
+    picture (a dark frame's is the whole frame, so a clip that opens on
+    black keeps every pixel), or None when the input cannot be read (the
+    run itself then reports why). A URL is not read twice (None: a network
+    stream would be opened again and a second of it spent)."""
+    from arstream.imaging import active_area
+    from arstream.source import _is_url
+
+    if isinstance(input, str) and _is_url(input):
+        return None
+    box = None
+    try:
+        with _open(input, threads=threads) as src:
+            for f in src:
+                if f.index % PEEK_EVERY == 0:
+                    a = active_area(f.image)
+                    box = a if box is None else (min(box[0], a[0]), min(box[1], a[1]), max(box[2], a[2]), max(box[3], a[3]))
+                if f.index + 1 >= PEEK_FRAMES:
+                    break
+    except Exception:  # (any damage: the run's own opening and decoding report it)
+        return None
+    return box
+
+
 def _check_outputs(input, *, output=None, cameras_out=None, max_frames: int | None = None) -> None:
     """Refuse, before any work, what would fail or lose data later: an output
     that would overwrite the input, one file for both the video and the
@@ -236,7 +269,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
     single = threads == 1
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
-        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0))
+        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=_picture_area(input, threads=not single))
         track_box: list = []
         stages = _build(
             [
@@ -254,6 +287,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
+        pipe.summary.picture = an.picture
         try:
             summary = pipe.run(handle_signals=handle_signals)
         finally:

@@ -77,7 +77,7 @@ class SizeScanStage(Stage):
 
         self.analysis = analysis
         cfg = TrackerConfig(paint_every=max(1, round(fps * SCAN_PAINT_SECONDS)))
-        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg) for L, W in sizes]
+        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg) for L, W in sizes]
         self.points = [marking_points(t.pitch) for t in self.trackers]
         #: per size, each frame's line support (docs/evaluate.md, on the frame at
         #: its own size; None: no camera)

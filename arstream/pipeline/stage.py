@@ -120,8 +120,11 @@ def own_detections(item: Item) -> None:
 
     if item.detections is not None and not item.owned:
         det = item.detections
+        # (a matte put back in a whole frame inside black bars is the item's own already)
+        embedded = item.matte is not None and item.matte is not _matte_of(det)
         item.detections = det.detach() if hasattr(det, "detach") else copy.deepcopy(det)
-        item.matte = _matte_of(item.detections)
+        if not embedded:
+            item.matte = _matte_of(item.detections)
     elif item.matte is not None and not item.owned:
         item.matte = item.matte.copy()
     item.owned = True

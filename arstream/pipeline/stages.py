@@ -98,9 +98,15 @@ class Analysis:
         the frame's displayed width ``width * pixel_aspect`` (at most
         ``analysis_width``), so the solver's square-pixel camera maps back to
         a frame camera whose ``K[1, 1] / K[0, 0]`` is the pixel aspect.
+    area : ``(x0, y0, x1, y1)`` frame pixels (end exclusive) or None: the
+        picture inside black bars (:func:`arstream.imaging.active_area`). The
+        analysis frame is then that picture only (a bar's edge is a bright
+        step the line finders take for a marking), at the same scale; the solver's
+        principal point is the frame's centre (:attr:`principal_point`), and
+        masks for keying are put back in the whole frame (:meth:`embed`).
     """
 
-    def __init__(self, width: int, height: int, analysis_width: int | None = None, *, pixel_aspect: float = 1.0):
+    def __init__(self, width: int, height: int, analysis_width: int | None = None, *, pixel_aspect: float = 1.0, area=None):
         self.W, self.H = int(width), int(height)
         if not (np.isfinite(pixel_aspect) and 0.1 <= pixel_aspect <= 10.0):
             raise ValueError(f"pixel aspect must be between 0.1 and 10, got {pixel_aspect}")
@@ -116,11 +122,66 @@ class Analysis:
             target = shown if analysis_width is None or analysis_width <= 0 else min(float(analysis_width), shown)
             w = max(16, int(round(target / 2.0)) * 2)
             h = max(16, int(round(self.H * w / shown / 2.0)) * 2)
-        self.w, self.h = w, h
-        self.full = (w, h) == (self.W, self.H)
+        #: the whole frame's size at the analysis scale
+        self.scaled = (w, h)
+        self.scaling = (w, h) != (self.W, self.H)
         self.sx, self.sy = self.W / w, self.H / h
+        #: the picture's box in the scaled frame (analysis pixels, end exclusive)
+        self.crop = self._crop(area, w, h)
+        self.w, self.h = self.crop[2] - self.crop[0], self.crop[3] - self.crop[1]
+        self.cropped = (self.w, self.h) != (w, h)
+        self.full = not self.scaling and not self.cropped
         #: (3, 3) analysis pixels -> frame pixels
-        self.S = np.array([[self.sx, 0.0, (self.sx - 1) / 2], [0.0, self.sy, (self.sy - 1) / 2], [0.0, 0.0, 1.0]])
+        self.S = np.array([[self.sx, 0.0, (self.sx - 1) / 2 + self.sx * self.crop[0]], [0.0, self.sy, (self.sy - 1) / 2 + self.sy * self.crop[1]], [0.0, 0.0, 1.0]])
+
+    def _crop(self, area, w: int, h: int) -> tuple[int, int, int, int]:
+        """The box of the analysis frame in the scaled frame: the whole, or the
+        picture of ``area`` (frame pixels), its corners inward on even pixels
+        (whole pixels of the half-size chroma planes)."""
+        if area is None:
+            return 0, 0, w, h
+        x0, y0, x1, y1 = (float(v) for v in area)
+        if not (0 <= x0 < x1 <= self.W and 0 <= y0 < y1 <= self.H):
+            raise ValueError(f"picture area must lie in the {self.W} x {self.H} frame, got {tuple(area)}")
+        if (x0, y0, x1, y1) == (0, 0, self.W, self.H):
+            return 0, 0, w, h
+        # (no margin: the detectors leave out the frame's border themselves, and
+        # 2 frame pixels more cost the long-lens views of bench/real_bars.py
+        # accuracy: 51 -> 37 of 84 reference frames within 5 px)
+        ax0 = 2 * math.ceil(x0 / self.sx / 2)
+        ay0 = 2 * math.ceil(y0 / self.sy / 2)
+        ax1 = w if x1 == self.W else 2 * math.floor(x1 / self.sx / 2)
+        ay1 = h if y1 == self.H else 2 * math.floor(y1 / self.sy / 2)
+        if ax1 - ax0 < w // 4 or ay1 - ay0 < h // 4:
+            return 0, 0, w, h  # (a sliver: not a picture worth analysing alone)
+        return ax0, ay0, ax1, ay1
+
+    @property
+    def picture(self) -> list | None:
+        """``[x0, y0, x1, y1]`` frame pixels (end exclusive) the analysis frame
+        covers when it is a picture inside black bars, else None."""
+        if not self.cropped:
+            return None
+        x0, y0, x1, y1 = self.crop
+        return [round(x0 * self.sx), round(y0 * self.sy), round(x1 * self.sx), round(y1 * self.sy)]
+
+    @property
+    def principal_point(self) -> np.ndarray:
+        """(2,) the frame's centre in analysis pixels: the solver's principal point."""
+        return np.linalg.solve(self.S, [(self.W - 1) / 2, (self.H - 1) / 2, 1.0])[:2]
+
+    def embed(self, mask):
+        """A mask of the analysis frame (at its size or a whole fraction of it)
+        put back in the whole frame at that scale, zero over the bars; as it
+        is without a crop."""
+        if mask is None or not self.cropped:
+            return mask
+        k = self.w / mask.shape[1]
+        out = np.zeros((int(round(self.scaled[1] / k)), int(round(self.scaled[0] / k))) + mask.shape[2:], mask.dtype)
+        x, y = int(round(self.crop[0] / k)), int(round(self.crop[1] / k))
+        h, w = min(mask.shape[0], out.shape[0] - y), min(mask.shape[1], out.shape[1] - x)
+        out[y : y + h, x : x + w] = mask[:h, :w]
+        return out
 
     @property
     def support_reach(self) -> int:
@@ -137,14 +198,21 @@ class Analysis:
         resolution (the frame itself is the analysis image)."""
         if self.full:
             return {}
+        (w, h), (x0, y0, x1, y1) = self.scaled, self.crop
+        if not self.scaling:
+            return {"analysis": np.ascontiguousarray(frame.image[y0:y1, x0:x1])}
         if frame.yuv is not None and not frame.has_image:
-            buf = np.empty((self.h * 3 // 2, self.w), np.uint8)
-            src, dst = i420_planes(frame.yuv, frame.width, frame.height), i420_planes(buf, self.w, self.h)
-            scale_to(src[0], (self.w, self.h), dst=dst[0])
+            buf = np.empty((h * 3 // 2, w), np.uint8)
+            src, dst = i420_planes(frame.yuv, frame.width, frame.height), i420_planes(buf, w, h)
+            scale_to(src[0], (w, h), dst=dst[0])
             for k in (1, 2):
-                scale_to(src[k], (self.w // 2, self.h // 2), dst=dst[k])
+                scale_to(src[k], (w // 2, h // 2), dst=dst[k])
+            if self.cropped:
+                buf = np.concatenate([dst[0][y0:y1, x0:x1].ravel()] + [p[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2].ravel() for p in dst[1:]]).reshape(-1, x1 - x0)
+                dst = i420_planes(buf, x1 - x0, y1 - y0)
             return {"analysis": cv2.cvtColor(buf, cv2.COLOR_YUV2BGR_I420), "thumbnail": grey_thumbnail(dst[0], video_range=True)}
-        return {"analysis": scale_to(frame.image, (self.w, self.h))}
+        img = scale_to(frame.image, (w, h))
+        return {"analysis": np.ascontiguousarray(img[y0:y1, x0:x1]) if self.cropped else img}
 
     def image(self, item: Item) -> np.ndarray:
         """BGR (h, w, 3) of the item's frame at the analysis size (cached on the
@@ -169,7 +237,7 @@ class Analysis:
         pts = np.asarray(pts, dtype=np.float64)
         if self.full:
             return pts
-        return pts * (self.sx, self.sy) + ((self.sx - 1) / 2, (self.sy - 1) / 2)
+        return pts * (self.sx, self.sy) + self.S[:2, 2]
 
     def ellipse(self, ell):
         """A geometry.conics.Ellipse in analysis pixels -> frame pixels (exact for sx == sy)."""
@@ -218,6 +286,9 @@ class DetectStage(Stage):
             det = self.detector.process(self.analysis.image(item), lazy=True, **hint)
             item.detections = det
             item.matte = _matte_of(det)
+            if self.analysis.cropped:  # (the render stage keys the whole frame: new arrays, the item's own)
+                item.matte = self.analysis.embed(item.matte)
+                item.lines = self.analysis.embed(getattr(det, "line_small", None))
         return [item]
 
 class MatteStage(Stage):
@@ -269,7 +340,7 @@ class TrackStage(Stage):
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
             auto = isinstance(pitch, str) and pitch == "auto"
-            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, support_reach=self.analysis.support_reach, pitch=None if auto else pitch, estimate_pitch=auto or estimate_pitch) if cls is not None else None
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, principal_point=self.analysis.principal_point, support_reach=self.analysis.support_reach, pitch=None if auto else pitch, estimate_pitch=auto or estimate_pitch) if cls is not None else None
         self.tracker = tracker
         #: the line support (docs/evaluate.md, on the frame at its own size) of
         #: every :data:`JUDGE_EVERY`-th frame released, None where it had no
@@ -294,7 +365,7 @@ class TrackStage(Stage):
             if item.matte is not None and not item.owned:
                 item.matte = item.matte.copy()  # the detector reuses its buffers
             det = item.detections
-            if det is not None and getattr(det, "line_small", None) is not None:
+            if det is not None and item.lines is None and getattr(det, "line_small", None) is not None:
                 item.lines = det.line_small if item.owned else det.line_small.copy()
             item.detections = None
             item.analysis = item.thumbnail = None

@@ -38,6 +38,10 @@ class Summary:
         standard deviations where estimated, source "given", "default" or
         "estimated", views)
     pitch_text : str or None, the same in words (printed after :meth:`line`)
+    picture : list or None, ``[x0, y0, x1, y1]`` (frame pixels, end exclusive):
+        the picture inside black bars that detection and tracking analysed
+        (:func:`arstream.imaging.active_area` of the clip's first frames);
+        None: the whole frame
     """
 
     input: str = ""
@@ -59,6 +63,7 @@ class Summary:
     cameras_in: str | None = None
     pitch: dict | None = None
     pitch_text: str | None = None
+    picture: list | None = None
 
     @property
     def fps(self) -> float:
@@ -75,6 +80,9 @@ class Summary:
             s += f"tracked {self.share_tracked:.1%}, mean confidence {self.confidence:.2f}"
         else:  # drawn with cameras from a file: nothing was tracked
             s += f"a camera from {self.cameras_in} on {self.share_tracked:.1%} of them"
+        if self.picture is not None:
+            x0, y0, x1, y1 = self.picture
+            s += f", the {x1 - x0} x {y1 - y0} picture inside black bars"
         if self.dropped:
             s += f", dropped {self.dropped}"
         outs = [p for p in (self.output, self.cameras) if p]
@@ -103,6 +111,7 @@ class Summary:
             "missing": list(self.missing),
             "size": [self.width, self.height],
             "pitch": self.pitch,
+            "picture": self.picture,
         }
 
 
