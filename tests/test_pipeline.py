@@ -835,23 +835,24 @@ def test_prepare_runs_on_the_decode_thread_and_fills_the_items(small):
 
 
 @pytest.mark.parametrize(
-    "size, aw, area, crop",
+    "size, aw, area, crop, aspect",
     [
-        ((1280, 720), 640, (160, 0, 1120, 720), (80, 0, 560, 360)),  # pillarbox, scaled by 2
-        ((1280, 720), 640, (0, 90, 1280, 630), (0, 46, 640, 314)),  # letterbox
-        ((1280, 720), 640, (0, 0, 1280, 601), (0, 0, 640, 300)),  # a bar at the bottom only
-        ((854, 480), 640, (107, 0, 747, 480), (108, 0, 746, 480)),  # at the frame's own size
-        ((1280, 720), 640, (0, 0, 1280, 720), (0, 0, 640, 360)),  # no bars: no crop
+        ((1280, 720), 640, (160, 0, 1120, 720), (80, 0, 560, 360), 1.0),  # pillarbox, scaled by 2
+        ((1280, 720), 640, (0, 90, 1280, 630), (0, 46, 640, 314), 1.0),  # letterbox
+        ((1280, 720), 640, (0, 0, 1280, 601), (0, 0, 640, 300), 1.0),  # a bar at the bottom only
+        ((854, 480), 640, (107, 0, 747, 480), (108, 0, 746, 480), 1.0),  # at the frame's own size
+        ((720, 576), 640, (90, 0, 630, 576), (80, 0, 560, 360), 64 / 45),  # anamorphic SD, pillarboxed
+        ((1280, 720), 640, (0, 0, 1280, 720), (0, 0, 640, 360), 1.0),  # no bars: no crop
     ],
 )
-def test_analysis_of_a_picture_inside_black_bars_maps_cameras_exactly(size, aw, area, crop):
+def test_analysis_of_a_picture_inside_black_bars_maps_cameras_exactly(size, aw, area, crop, aspect):
     """The analysis frame is the picture, its corners inward on even pixels;
     a camera solved on it with the frame's centre as principal point maps back
     exactly, and a mask of it goes back into the whole frame over the bars."""
     from geometry.camera import PTZ, camera_from_ptz
 
     W, H = size
-    an = Analysis(W, H, aw, area=area)
+    an = Analysis(W, H, aw, area=area, pixel_aspect=aspect)
     assert an.crop == crop and (an.w, an.h) == (crop[2] - crop[0], crop[3] - crop[1])
     assert an.cropped == (crop != (0, 0) + an.scaled) and (an.picture is None) == (not an.cropped)
     if an.cropped:
