@@ -30,7 +30,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "paint_verdict", "circle_view_cameras", "register_frame", "register_image"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "circle_view_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -361,6 +361,16 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
+def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections) -> tuple[Refinement | None, float | None]:
+    """The paint initialiser (:func:`initialise_from_paint`) as for a frame
+    without temporal help: with the detector's ellipses and lines, the centre
+    circle's family refined, and hypotheses off the grass
+    (:data:`arstream.support.ON_GRASS`) or along bright steps
+    (:data:`arstream.support.ON_LINES`) left out. :func:`register_frame`'s,
+    and the tracker's against its own fresh camera."""
+    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
+
+
 def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7) -> str | None:
     """Why a frame's paint does not back a camera (None: it does), the test a
     camera without temporal help must pass (:func:`register_frame`; the
@@ -439,7 +449,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         if r is None or not backed(r.camera, sup, spread) or sup < PAINT_CHECK:
             # (a backed camera from the detector's lines that still leaves much of
             # the paint off its markings: the paint's own may do better)
-            rp, _ = initialise_from_paint(view, size, principal_point=pp, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
+            rp, _ = still_paint_camera(view, size, principal_point=pp, pitch=pitch, detections=detections)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 # (by the paint initialiser's own measure: a camera that lays a
@@ -463,8 +473,9 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
 
     The picture inside black bars (:func:`arstream.imaging.active_area`) is
     analysed on its own, with the frame's principal point (its centre), at
-    the analysis size (:class:`arstream.pipeline.stages.Analysis`: square
-    pixels for the solver, ``pixel_aspect`` mapped back), then
+    the analysis size (:class:`arstream.pipeline.stages.Analysis` with the
+    picture as its ``area``, as ``process`` analyses a clip: square pixels
+    for the solver, ``pixel_aspect`` mapped back), then
     :func:`register_frame` with the picture; the camera is mapped back to the
     whole frame.
     """
@@ -473,15 +484,12 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     from arstream.pipeline.stages import Analysis
 
     H, W = image.shape[:2]
-    x0, y0, x1, y1 = active_area(image)
-    pic = image if (x0, y0, x1, y1) == (0, 0, W, H) else np.ascontiguousarray(image[y0:y1, x0:x1])
-    an = Analysis(x1 - x0, y1 - y0, None, pixel_aspect=pixel_aspect)
-    work = pic if an.full else cv2.resize(pic, (an.w, an.h), interpolation=cv2.INTER_CUBIC)
-    # analysis pixels -> frame pixels; the frame's centre is the principal point
-    F = np.array([[1.0, 0.0, x0], [0.0, 1.0, y0], [0.0, 0.0, 1.0]]) @ an.S
-    pp = np.linalg.solve(F, [(W - 1) / 2, (H - 1) / 2, 1.0])[:2]
-    est = register_frame(detect(work), (an.w, an.h), principal_point=pp, image=work, pitch=pitch)
+    an = Analysis(W, H, None, pixel_aspect=pixel_aspect, area=active_area(image))
+    x0, y0, x1, y1 = an.crop
+    # (square pixels for the solver: a frame of other pixels stretched, bicubic)
+    frame = cv2.resize(image, an.scaled, interpolation=cv2.INTER_CUBIC) if an.scaling else image
+    work = np.ascontiguousarray(frame[y0:y1, x0:x1]) if an.cropped else frame
+    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch)
     if est.camera is None:
         return est
-    cam = Camera(K=F @ est.camera.K, R=est.camera.R, t=est.camera.t, dist=est.camera.dist)
-    return CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, est.info)
+    return CameraEstimate(est.frame, est.pts, est.status, an.camera(est.camera), est.confidence, est.info)

@@ -54,10 +54,10 @@ from scipy.linalg import block_diag
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
-from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, view_supports
+from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, still_paint_camera, view_supports
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
-from arstream.support import ON_GRASS, ON_LINES, backed_support, backs, on_lines, white_mask
+from arstream.support import ON_LINES, backed_support, backs, on_lines, white_mask
 from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
 from geometry.pitch import PitchModel
 
@@ -1075,8 +1075,7 @@ class Tracker:
         when the frame's paint does not back ``r``
         (:func:`arstream.initialise.paint_verdict`) or backs it with less than
         :data:`arstream.initialise.PAINT_CHECK`, the paint initialiser runs as
-        for a still (the centre circle's family refined, hypotheses off the
-        grass or along bright steps left out), and its camera wins when the
+        for a still (:func:`arstream.initialise.still_paint_camera`), and its camera wins when the
         paint backs it and not ``r``, or backs it more by
         :func:`arstream.initialise.paint_score`. Else None.
 
@@ -1091,7 +1090,7 @@ class Tracker:
         if backed and sup >= PAINT_CHECK:
             return None
         self._paint_at = index
-        rp, sp = initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
+        rp, sp = still_paint_camera(view, self.size, principal_point=self.pp, pitch=self.pitch, detections=det)
         if rp is None or sp < self.cfg.paint_accept:
             return None
         sp2, spread_p = self._support(index, rp.camera, view.image)

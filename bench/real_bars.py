@@ -19,7 +19,7 @@ A variant is ``letter:0.125`` (black over the top and bottom 12.5 % of the
 rows: a 2.35:1 picture in 16:9) or ``pillar:0.125`` (the left and right
 12.5 % of the columns: a 4:3 picture in 16:9). The copies are libx264 at crf
 16 without its AVX-512 code (the same bytes on every processor,
-:func:`real_perturbed.reencode`). Distances are means over the markings in
+:func:`real_perturbed.x264_options`). Distances are means over the markings in
 the reference's view, in pixels of a 1280-wide frame
 (:func:`real_footage.distance_1280`). The material is read from
 ``../shared/data/real-broadcast`` (skipped with a message where it is absent).
@@ -44,29 +44,12 @@ from arstream.evaluate_video import evaluate_video  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
-from encoder_reproducibility import capabilities  # noqa: E402
 from real_footage import SHARED, _fmt, distance_1280, pitch_args, references  # noqa: E402
+from real_graphics import barred  # noqa: E402
+from real_perturbed import x264_options  # noqa: E402
 
 CLIPS = ["israel_league_wide", "artificial_turf_multisport"]
 VARIANTS = ["pillar:0.125", "pillar:0.08", "letter:0.125", "letter:0.1"]
-
-
-def barred(img: np.ndarray, variant: str) -> np.ndarray:
-    """The BGR frame with black bars of ``variant`` (``letter:SHARE`` or ``pillar:SHARE``) drawn over it."""
-    kind, share = variant.split(":")
-    out = img.copy()
-    H, W = img.shape[:2]
-    if kind == "letter":
-        b = int(round(float(share) * H))
-        out[:b] = 0
-        out[H - b :] = 0
-    elif kind == "pillar":
-        b = int(round(float(share) * W))
-        out[:, :b] = 0
-        out[:, W - b :] = 0
-    else:
-        raise ValueError(f"a variant is letter:SHARE or pillar:SHARE, got {variant!r}")
-    return out
 
 
 def barred_copy(src: Path, dst: Path, variant: str, frames: int | None = None) -> Path:
@@ -74,12 +57,11 @@ def barred_copy(src: Path, dst: Path, variant: str, frames: int | None = None) -
     ``variant`` over every frame, libx264 crf 16 (reproducible bytes)."""
     import av
 
-    asm = ",".join(c for c in capabilities() if not c.upper().startswith("AVX512"))
     with av.open(str(src)) as inp, av.open(str(dst), "w") as out:
         vs = inp.streams.video[0]
         st = out.add_stream("libx264", rate=vs.average_rate)
         st.width, st.height, st.pix_fmt = vs.width, vs.height, "yuv420p"
-        st.options = {"crf": "16", "preset": "fast", "x264-params": f"asm={asm}"}
+        st.options = x264_options(16)
         for k, fr in enumerate(inp.decode(video=0)):
             if frames is not None and k >= frames:
                 break

@@ -90,24 +90,34 @@ def bottom_bar(share: float):
     return draw
 
 
+def barred(img: np.ndarray, variant: str) -> np.ndarray:
+    """The BGR frame with black bars of ``variant`` drawn over it:
+    ``letter:SHARE`` (the top and bottom SHARE of the rows) or
+    ``pillar:SHARE`` (the left and right SHARE of the columns)."""
+    kind, share = variant.split(":")
+    out = img.copy()
+    H, W = img.shape[:2]
+    if kind == "letter":
+        b = int(round(float(share) * H))
+        out[:b] = 0
+        out[H - b :] = 0
+    elif kind == "pillar":
+        b = int(round(float(share) * W))
+        out[:, :b] = 0
+        out[:, W - b :] = 0
+    else:
+        raise ValueError(f"a variant is letter:SHARE or pillar:SHARE, got {variant!r}")
+    return out
+
+
 def letterbox(img: np.ndarray) -> np.ndarray:
     """Black bars over the top and bottom 12.5 % (a 2.35:1 picture in a 16:9 frame)."""
-    out = img.copy()
-    H = img.shape[0]
-    b = int(round(0.125 * H))
-    out[:b] = 0
-    out[H - b :] = 0
-    return out
+    return barred(img, "letter:0.125")
 
 
 def pillarbox(img: np.ndarray) -> np.ndarray:
     """Black bars over the left and right 12.5 % (a 4:3 picture in a 16:9 frame)."""
-    out = img.copy()
-    W = img.shape[1]
-    b = int(round(0.125 * W))
-    out[:, :b] = 0
-    out[:, W - b :] = 0
-    return out
+    return barred(img, "pillar:0.125")
 
 
 def small_jpeg(img: np.ndarray) -> np.ndarray:

@@ -84,6 +84,14 @@ def area_scale(plane: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return ((both + d // 2) // d).astype(np.uint8)
 
 
+def x264_options(crf: int) -> dict:
+    """libx264's options for the same bytes on every processor: ``crf``, preset
+    fast, without its AVX-512 code, which at some frame sizes reads memory it
+    never wrote (bench/README.md, "Reproducible encodes")."""
+    asm = ",".join(c for c in capabilities() if not c.upper().startswith("AVX512"))
+    return {"crf": str(crf), "preset": "fast", "x264-params": f"asm={asm}"}
+
+
 def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264") -> Path:
     """``frames`` frames of ``src`` (all with None) from frame ``start`` on,
     scaled to ``size`` (area averaging, :func:`area_scale`) and encoded with
@@ -113,10 +121,7 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
     if w % 2 or h % 2:
         raise ValueError(f"size must be even, got {w} x {h}")
     if codec == "libx264":
-        # (without its AVX-512 code, which at some frame sizes reads memory it
-        # never wrote: bench/README.md, "Reproducible encodes")
-        asm = ",".join(c for c in capabilities() if not c.upper().startswith("AVX512"))
-        options = {"crf": str(quality), "preset": "fast", "x264-params": f"asm={asm}"}
+        options = x264_options(quality)
     elif codec == "mpeg2video":
         options = {"b": f"{int(quality)}k", "threads": "1", "flags": "+bitexact"}
     else:

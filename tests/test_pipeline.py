@@ -898,24 +898,8 @@ def test_analysis_refuses_a_picture_outside_the_frame(area):
         Analysis(1280, 720, 640, area=area)
 
 
-def _barred_copy(src, dst, *, left: int = 0, top: int = 0) -> None:
-    """``src`` re-encoded with black bars over ``left`` columns on each side and ``top`` rows above and below."""
-    with av.open(str(src)) as ic, av.open(str(dst), "w") as oc:
-        vs = ic.streams.video[0]
-        st = oc.add_stream("libx264", rate=vs.average_rate)
-        st.width, st.height, st.pix_fmt, st.options = vs.width, vs.height, "yuv420p", {"crf": "16"}
-        for fr in ic.decode(video=0):
-            img = fr.to_ndarray(format="bgr24")
-            if left:
-                img[:, :left] = img[:, img.shape[1] - left :] = 0
-            if top:
-                img[:top] = img[img.shape[0] - top :] = 0
-            oc.mux(st.encode(av.VideoFrame.from_ndarray(img, format="bgr24")))
-        oc.mux(st.encode())
-
-
-@pytest.mark.parametrize("left, top", [(80, 0), (0, 45)])
-def test_a_clip_inside_black_bars_is_tracked_on_its_picture(clip, tmp_path, left, top):
+@pytest.mark.parametrize("variant, left, top", [("pillar:0.125", 80, 0), ("letter:0.125", 0, 45)])
+def test_a_clip_inside_black_bars_is_tracked_on_its_picture(clip, tmp_path, variant, left, top):
     """Pillarbox and letterbox bars (12.5 % a side) over a synthetic clip: the
     run analyses the picture inside them (the summary says which) with the
     frame's principal point, and the cameras are the frame's. With the bars
@@ -923,8 +907,10 @@ def test_a_clip_inside_black_bars_is_tracked_on_its_picture(clip, tmp_path, left
     median 0.67 and 1.18 px, against 0.13 and 0.14)."""
     from arstream.evaluate import score
 
-    barred = tmp_path / "barred.mp4"
-    _barred_copy(clip / "clip.mp4", barred, left=left, top=top)
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    from real_bars import barred_copy  # (bench/real_bars.py's copies of the real clips)
+
+    barred = barred_copy(clip / "clip.mp4", tmp_path / "barred.mp4", variant)
     s = arstream.process(barred, tmp_path / "o.mp4", cameras_out=tmp_path / "c.jsonl")
     x0, y0, x1, y1 = s.picture
     assert max(abs(x0 - left), abs(640 - x1 - left), abs(y0 - top), abs(360 - y1 - top)) <= 4

@@ -250,7 +250,9 @@ def process(
         raise ValueError(f"threads must be 0 (auto) or positive, got {threads}")
     pitch = _pitch_model(pitch)
     _load_kernels()
-    run = dict(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, progress=progress, max_frames=max_frames, handle_signals=handle_signals, overlap=overlap, analysis_width=analysis_width, pixel_aspect=pixel_aspect, threads=threads, keep_b_frames=keep_b_frames)
+    # (the picture inside black bars, once: a second run, after the pitch scan, analyses the same)
+    area = _picture_area(input, threads=threads != 1)
+    run = dict(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, progress=progress, max_frames=max_frames, handle_signals=handle_signals, overlap=overlap, analysis_width=analysis_width, pixel_aspect=pixel_aspect, threads=threads, keep_b_frames=keep_b_frames, area=area)
     first, supports, an, _ = _process_once(input, output, cameras_out, pitch=pitch, **run)
     if pitch is not None or not _has("arstream.track"):
         return first
@@ -261,15 +263,16 @@ def process(
     return _rescan(input, output, cameras_out, first, an, run)
 
 
-def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, estimate_pitch: bool = False) -> tuple[Summary, list, Analysis, object]:
+def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False) -> tuple[Summary, list, Analysis, object]:
     """One run of :func:`process`: (its summary, the line support of every
     :data:`JUDGE_EVERY`-th frame (None: no camera), the Analysis it worked
     at, the tracker's PitchSize or None). ``estimate_pitch``: estimate the
-    size starting from ``pitch``."""
+    size starting from ``pitch``; ``area``: the picture inside black bars
+    (:func:`_picture_area`)."""
     single = threads == 1
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
-        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=_picture_area(input, threads=not single))
+        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=area)
         track_box: list = []
         stages = _build(
             [

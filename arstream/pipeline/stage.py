@@ -120,10 +120,11 @@ def own_detections(item: Item) -> None:
 
     if item.detections is not None and not item.owned:
         det = item.detections
-        # (a matte put back in a whole frame inside black bars is the item's own already)
-        embedded = item.matte is not None and item.matte is not _matte_of(det)
+        # (the detector's own buffer follows the copy; a matte put back in a
+        # whole frame inside black bars is the item's already)
+        detectors = item.matte is _matte_of(det)
         item.detections = det.detach() if hasattr(det, "detach") else copy.deepcopy(det)
-        if not embedded:
+        if detectors:
             item.matte = _matte_of(item.detections)
     elif item.matte is not None and not item.owned:
         item.matte = item.matte.copy()
