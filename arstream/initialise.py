@@ -21,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.detect.paint import paint_lines, paint_mask
+from arstream.detect.paint import paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
@@ -30,7 +30,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "circle_view_cameras", "register_frame", "register_image"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "circle_view_cameras", "penalty_arc_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -154,11 +154,13 @@ class PaintView:
     index : LineIndex over ``points`` (made on first access)
     lines : list of DetectedLine, the paint's straight lines, most support
         first (found on first access: tracking needs only the pixels)
+    arcs : list of PaintArc, penalty arcs beside those lines (first access)
     """
 
     def __init__(self, image: np.ndarray, mask: np.ndarray, points: np.ndarray, bright: np.ndarray, grass: np.ndarray | None = None):
         self.image, self.mask, self.points, self.bright, self.grass = image, mask, points, bright, grass
         self._lines: list | None = None
+        self._arcs: list | None = None
         self._index: LineIndex | None = None
 
     @property
@@ -172,6 +174,13 @@ class PaintView:
         if self._lines is None:
             self._lines = paint_lines(self.mask, self.image)
         return self._lines
+
+    @property
+    def arcs(self) -> list:
+        """Penalty arcs beside the paint's lines (:func:`arstream.detect.paint.paint_arcs`), found on first access."""
+        if self._arcs is None:
+            self._arcs = paint_arcs(self.mask, self.lines)
+        return self._arcs
 
 
 def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
@@ -217,6 +226,7 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     found = view.lines[:10]
     hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
     cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
+    cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
     if not cands:
         return None, None
     model = ModelSamples.from_pitch(pitch, 0.5)
@@ -310,18 +320,75 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
                 fam = cameras_along_circle(ell.conic, dl.line, ell.points, dl.points, principal_point, image_width=W, focals=W * np.asarray(focals_per_width), radius=radius)
             except ValueError:
                 continue
-            members = [cam for cam in fam if plausible(cam.center, cam.focal, W, pitch)[0]]
-            out.extend(_best_members(members, view, points, keep))
-            if refine:
-                refined = []
-                for cam in members:
-                    try:
-                        cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
-                    except ValueError:
-                        continue
-                    if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for c in refined):
-                        refined.append(cam)
-                out.extend(_best_members(refined, view, points, keep))
+            out.extend(_family_pick(fam, view, size, pitch, points, model, keep))
+    return out
+
+
+def penalty_arc_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 2, focals_per_width=np.geomspace(0.4, 10.0, 18), refine: bool = False) -> list[Camera]:
+    """Hypotheses of a penalty-area view from a penalty arc and the penalty
+    area's front line (the paint's arcs, :attr:`PaintView.arcs`).
+
+    The arc is the circle of radius 9.15 m about the penalty mark, and the
+    front line is the line X = 5.5 m from the mark in the circle's frame: at
+    each focal length (``focals_per_width`` times the width) the pose that
+    lays both on their pixels (:func:`arstream.solve.cameras_along_circle`
+    with that ``offset``, the pole-polar geometry of the circle and a line
+    not through its centre). Each member is placed on the pitch at the end
+    that puts the camera on the main camera's side (Y < 0). As with
+    :func:`circle_view_cameras`, the rest of the view (goal line, goal area,
+    the penalty area's sides) tells the members apart: the ``keep`` of the
+    plausible members with the most marking points on paint are returned
+    (and with ``refine``, the ``keep`` best refined against the paint).
+    Returns a list of Camera (empty without an arc).
+    """
+    W, H = size
+    arcs = view.arcs
+    if not arcs:
+        return []
+    points = marking_points(pitch)
+    model = ModelSamples.from_pitch(pitch, 0.5) if refine else None
+    arc_m = pitch["penalty_arc_left"]
+    mark = np.array([*arc_m.center, 0.0])
+    offset = float(pitch["penalty_area_left_front"].start[0] - arc_m.center[0])
+    out: list[Camera] = []
+    for pa in arcs:
+        try:
+            fam = cameras_along_circle(pa.arc.conic, pa.front.line, pa.arc.points, pa.front.points, principal_point, image_width=W, focals=W * np.asarray(focals_per_width), radius=arc_m.radius, offset=offset)
+        except ValueError:
+            continue
+        placed = []
+        for cam in fam:
+            # the circle's frame (+X towards the halfway line) to the pitch's, at
+            # the left end (as it is) or the right (turned half a circle)
+            for M in (np.eye(3), np.diag([-1.0, -1.0, 1.0])):
+                s = M @ mark
+                Rp = cam.R @ M
+                c = Camera(K=cam.K, R=Rp, t=cam.t - Rp @ s)
+                if c.center[1] < 0:
+                    placed.append(c)
+        out.extend(_family_pick(placed, view, size, pitch, points, model, keep))
+    return out
+
+
+def _family_pick(fam: list[Camera], view: PaintView, size, pitch: PitchModel, points: np.ndarray, model: ModelSamples | None, keep: int) -> list[Camera]:
+    """Of a one-parameter family of cameras (:func:`arstream.solve.cameras_along_circle`),
+    the ``keep`` plausible members with the most marking points on paint
+    (:func:`_best_members`), and with a ``model`` also the ``keep`` best of
+    the members refined against the paint pixels (the distinct ones still
+    plausible)."""
+    W = size[0]
+    members = [cam for cam in fam if plausible(cam.center, cam.focal, W, pitch)[0]]
+    out = _best_members(members, view, points, keep)
+    if model is not None:
+        refined: list[Camera] = []
+        for cam in members:
+            try:
+                cam = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0)).camera
+            except ValueError:
+                continue
+            if plausible(cam.center, cam.focal, W, pitch)[0] and not any(same_camera(cam, c) for c in refined):
+                refined.append(cam)
+        out += _best_members(refined, view, points, keep)
     return out
 
 

@@ -269,11 +269,13 @@ def cameras_along_circle(
     image_width: float,
     focals,
     radius: float | None = None,
+    offset: float = 0.0,
     max_points: int = 120,
     max_rms: float = 2.0,
 ) -> list[Camera]:
     """Cameras of a centre-circle view at given focal lengths, fitted to the
-    circle's and the halfway line's pixels.
+    circle's and the halfway line's pixels (or, with an ``offset``, of a
+    penalty-arc view, fitted to the arc's and the penalty area's front line's).
 
     The closed form (:func:`solve_from_circle`) takes its focal length from
     the ellipse alone. A real view that shows a short arc of the circle, or
@@ -301,6 +303,13 @@ def cameras_along_circle(
     image_width : float, pixels
     focals : (F,) focal lengths to fit at, pixels
     radius : centreline radius of the centre circle (m); default from PitchModel
+    offset : X of the line in the circle's own frame (m; the circle's centre
+        at the origin, the line X = ``offset``): 0 for the halfway line
+        through the centre circle; a penalty area's front line lies 5.44 m
+        from its penalty mark, towards the halfway line (+X). With an offset
+        the cameras are in the circle's frame, and either side of it may be
+        the main camera's (the caller places them on the pitch, a penalty
+        mark at either end)
     max_points : most pixels of each kind used (evenly taken)
     max_rms : a fit whose pixels lie further from the circle and the line than
         this (px, RMS) is no member of the family
@@ -308,7 +317,8 @@ def cameras_along_circle(
     Returns
     -------
     list of Camera, one per focal length where a fit was found (in the order
-    of ``focals``; square pixels, the given principal point, no distortion).
+    of ``focals``; square pixels, the given principal point, no distortion;
+    pitch frame, or the circle's frame with an ``offset``).
 
     Raises
     ------
@@ -321,6 +331,9 @@ def cameras_along_circle(
     halfway = np.asarray(halfway, dtype=np.float64).reshape(-1, 2)
     if len(arc) < 6 or len(halfway) < 2:
         raise ValueError(f"need at least 6 arc and 2 halfway-line pixels, got {len(arc)} and {len(halfway)}")
+    offset = float(offset)
+    if not abs(offset) < radius:
+        raise ValueError(f"the line must cross the circle: offset {offset:g} m, radius {radius:g} m")
     ellipse_from_conic(E)  # raises for non-ellipses
     W = float(image_width)
     pp = np.asarray(principal_point, dtype=np.float64)
@@ -334,10 +347,10 @@ def cameras_along_circle(
         best = None
         for lv in _candidate_vanishing_lines(En, f / W):
             try:
-                start = _camera_from_circle_geometry(En, ln, lv, f / W, T, ends, radius, pp, W).camera
+                start = _camera_from_circle_geometry(En, ln, lv, f / W, T, ends, radius, pp, W, offset).camera
             except ValueError:
                 continue
-            fit = _fit_circle_view(start, A, B, Cw)
+            fit = _fit_circle_view(start, A, B, Cw, offset)
             if fit is not None and (best is None or fit[1] < best[1]):
                 best = fit
         fits.append(best)
@@ -351,20 +364,21 @@ def cameras_along_circle(
                 near = fits[prev][0]
                 k = focals[j] / near.focal
                 start = Camera(K=intrinsic_matrix(focals[j], pp[0], pp[1]), R=near.R, t=-near.R @ (near.center * k))
-                fit = _fit_circle_view(start, A, B, Cw)
+                fit = _fit_circle_view(start, A, B, Cw, offset)
                 if fit is not None and (fits[j] is None or fit[1] < fits[j][1]):
                     fits[j] = fit
             prev = j
     return [fit[0] for fit in fits if fit is not None and fit[1] <= max_rms]
 
 
-def _fit_circle_view(start: Camera, A: np.ndarray, B: np.ndarray, Cw: np.ndarray) -> tuple[Camera, float] | None:
+def _fit_circle_view(start: Camera, A: np.ndarray, B: np.ndarray, Cw: np.ndarray, offset: float = 0.0) -> tuple[Camera, float] | None:
     """:func:`cameras_along_circle`'s fit at ``start``'s focal length: rotation
     (a perturbation of ``start``'s) and centre, so that the projected circle
-    ``Cw`` passes through ``A`` (N, 3) and the halfway line (X = 0) through
-    ``B`` (M, 3), homogeneous pixels. Returns (camera, RMS distance of the
+    ``Cw`` passes through ``A`` (N, 3) and the line X = ``offset`` (the
+    halfway line: 0) through ``B`` (M, 3), homogeneous pixels. Returns (camera, RMS distance of the
     pixels, px), or None when the fit leaves the cameras that see the pitch's
-    plane."""
+    plane, or (with an offset) is upside down or lays the arc on the
+    circle's part behind the line."""
     K, R0 = start.K, start.R
     bad = np.full(len(A) + len(B), 1e3)
 
@@ -375,7 +389,7 @@ def _fit_circle_view(start: Camera, A: np.ndarray, B: np.ndarray, Cw: np.ndarray
             Hi = np.linalg.inv(H)
         except np.linalg.LinAlgError:
             return bad
-        lx = Hi[0]  # the image of X = 0: H^-T (1, 0, 0)
+        lx = Hi[0] if offset == 0.0 else Hi[0] - offset * Hi[2]  # the image of X = offset: H^-T (1, 0, -offset)
         Ci = Hi.T @ Cw @ Hi
         CA = A @ Ci
         out = np.concatenate([(B @ lx) / np.hypot(lx[0], lx[1]), np.einsum("ij,ij->i", CA, A) / (2.0 * np.hypot(CA[:, 0], CA[:, 1]))])
@@ -390,14 +404,35 @@ def _fit_circle_view(start: Camera, A: np.ndarray, B: np.ndarray, Cw: np.ndarray
     C = sol.x[3:6]
     if not np.all(np.isfinite(C)) or C[2] <= 0:
         return None
+    if offset != 0.0:
+        # an upright camera (the pitch's up is the image's up: a camera on
+        # either side of the circle is no longer held to the near side), and
+        # the arc's pixels beyond the line (X > offset), not on the circle's
+        # part behind it: the circle's centre and the arc on opposite sides
+        if R[1, 2] >= 0:
+            return None
+        H = K @ np.column_stack([R[:, 0], R[:, 1], -R @ C])
+        lx = np.linalg.inv(H).T @ np.array([1.0, 0.0, -offset])
+        if np.sign(lx @ H[:, 2]) == np.sign(np.median(A @ lx)):
+            return None
     return Camera(K=K, R=R, t=-R @ C), float(np.sqrt(np.mean(sol.fun**2)))
 
 
-def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width) -> CircleSolution:
+def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_point, image_width, offset: float = 0.0) -> CircleSolution:
+    """The camera of a circle's view from its ellipse ``En``, a line ``ln``
+    (X = ``offset`` in the circle's frame) and a vanishing line ``lv``
+    (normalised coordinates, focal length ``phi`` widths): the pole-polar
+    geometry. With no offset (the halfway line) the camera is placed on the
+    near side (Y < 0); with one, in the circle's frame on either side."""
     Kn_inv = np.diag([1 / phi, 1 / phi, 1.0])
     En_inv = np.linalg.inv(En)
     o = En_inv @ lv  # imaged centre (normalised coords)
-    vx = En_inv @ ln  # pole of the halfway line: touchline direction
+    if offset == 0.0:
+        vx = En_inv @ ln  # pole of the halfway line: touchline direction
+    else:
+        # the line's pole is the image of (radius^2 / offset, 0): on the X axis
+        # through the centre, which meets the vanishing line in X's direction
+        vx = np.cross(np.cross(o, En_inv @ ln), lv)
     vy = np.cross(ln, lv)  # halfway line direction
     d1 = Kn_inv @ vx
     d2 = Kn_inv @ vy
@@ -421,23 +456,25 @@ def _camera_from_circle_geometry(En, ln, lv, phi, T, ends, radius, principal_poi
             U, _, Vt = np.linalg.svd(M)
             R = U @ Vt
             r2o = R[:, 1]
-            # scale from the radius: the ends of the halfway chord are (0, +-r, 0)
+            half = radius if offset == 0.0 else np.sqrt(radius * radius - offset * offset)
+            side = offset * R[:, 0]
+            # scale from the radius: the ends of the chord are (offset, +-h, 0)
             lam = []
             for q, sgn in zip(q_ends, (1.0, -1.0)):
                 a = np.cross(q, d)
-                b = np.cross(q, sgn * radius * r2o)
+                b = np.cross(q, sgn * half * r2o + side)
                 lam.append(-(a @ b) / (a @ a))
             lam_alt = []
             for q, sgn in zip(q_ends, (-1.0, 1.0)):
                 a = np.cross(q, d)
-                b = np.cross(q, sgn * radius * r2o)
+                b = np.cross(q, sgn * half * r2o + side)
                 lam_alt.append(-(a @ b) / (a @ a))
             for ls in (lam, lam_alt):
                 if min(ls) <= 0:
                     continue
                 t = np.mean(ls) * d
                 C = -R.T @ t
-                if C[2] > 0 and C[1] < 0:
+                if C[2] > 0 and (C[1] < 0 or offset != 0.0):
                     spread = abs(ls[0] - ls[1]) / np.mean(ls)
                     if best is None or spread < best[0]:
                         best = (spread, R, t)

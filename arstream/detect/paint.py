@@ -15,6 +15,10 @@ This module is the initialiser's second look at such frames:
   pixels near it and kept as its longest run with gaps under 4 % of the
   frame's width (a player on the line leaves a gap; a chain of players in a
   row is no line: most of a line's length must be covered).
+* :func:`paint_arcs` — penalty arcs: a curve of paint that leaves a long
+  straight line (the penalty area's front line) and comes back to it, fitted
+  by an ellipse (the ridge detector's ellipse search asks for more of the
+  perimeter than a real penalty arc shows).
 
 Coordinates are frame pixels (x right, y down, pixel centres at integers).
 """
@@ -24,9 +28,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .results import DetectedLine
+from geometry.conics import conic_from_ellipse, ellipse_from_conic, intersect_line_conic, normalize_conic, refine_ellipse, sampson_distance
+from geometry.lines import hartley_normalization
 
-__all__ = ["paint_mask", "paint_lines", "PAINT_CONTRAST", "PAINT_BOX"]
+from .results import DetectedEllipse, DetectedLine, PaintArc
+
+__all__ = ["paint_mask", "paint_lines", "paint_arcs", "PAINT_CONTRAST", "PAINT_BOX"]
 
 # the line-support test's neighbourhood and contrast (DESIGN.md section 5b):
 # brighter than the 15 x 15 box mean by more than 12 levels
@@ -218,3 +225,183 @@ def paint_lines(mask: np.ndarray, image: np.ndarray | None = None, *, min_length
         both = grass_beside(lines, image)
         lines = [lines[k] for k in np.argsort(both < 0.5, kind="stable")]
     return lines[:max_lines]
+
+
+def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, max_arcs: int = 2, min_chord: float = 0.05, max_rise: float = 0.6) -> list[PaintArc]:
+    """Penalty arcs in a paint mask: a curve that leaves one of the long
+    straight ``lines`` and comes back to it.
+
+    Beside each of the first ``fronts`` lines at least 10 % of the width long
+    (candidate front lines), on either side, the paint pixels a little off
+    the line (more than ``tol``, about 1.5 px at 1280 wide) and less than
+    ``max_rise`` times its length away are taken; their connected pieces
+    (a player on the arc cuts it), alone and in pairs, are fitted by an
+    ellipse (RANSAC over 5-point conics, then refined to the paint pixels
+    near it by :func:`geometry.conics.refine_ellipse`). An arc is kept when
+    its ellipse crosses the line twice, at least ``min_chord`` times the
+    width apart and within the line's extent (a tenth of it to spare); it
+    rises off the line by more than 3 ``tol`` and by at most ``max_rise``
+    times its chord; and the paint pixels beyond the line within ``tol`` of
+    the ellipse (Sampson distance) cover at least half of the chord's
+    length, with an RMS distance under ``tol``. The arc with the most
+    covered length is kept for each line.
+
+    Parameters
+    ----------
+    mask : (H, W) uint8 paint mask (:func:`paint_mask`)
+    lines : list of DetectedLine (:func:`paint_lines`), frame pixels
+    fronts, max_arcs, min_chord, max_rise : as above
+
+    Returns
+    -------
+    list of PaintArc (at most ``max_arcs``, the best covered first): the arc
+    (DetectedEllipse, ``kind="arc"``, its inlier pixels, frame pixels) and
+    the line it leaves.
+    """
+    if not isinstance(mask, np.ndarray) or mask.ndim != 2:
+        raise ValueError(f"mask must be a 2-D array, got {getattr(mask, 'shape', type(mask).__name__)}")
+    H, W = mask.shape
+    ys, xs = np.nonzero(mask)
+    if len(xs) < 20:
+        return []
+    P = np.column_stack([xs, ys]).astype(np.float64)
+    tol = max(1.0, 1.5 * W / 1280)
+    raster = np.zeros((H, W), np.uint8)
+    found: list[tuple[float, PaintArc]] = []
+    for front in [dl for dl in lines if dl.length >= 0.1 * W][:fronts]:
+        n, c = front.line[:2], float(front.line[2])
+        d = np.array([n[1], -n[0]])
+        t, s = P @ d, P @ n + c
+        t0, t1 = np.sort(front.endpoints @ d)
+        L = t1 - t0
+        best = None
+        for side in (1.0, -1.0):
+            u = side * s
+            sel = np.flatnonzero((u > tol) & (u < max_rise * L) & (t > t0 - 0.1 * L) & (t < t1 + 0.1 * L))
+            if len(sel) < 20:
+                continue
+            Q = P[sel]
+            raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 255
+            k, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(raster, np.ones((3, 3), np.uint8)), connectivity=8)
+            raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 0
+            pl = lab[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)]
+            # pieces of some length (a player's blob is short), longest first
+            ext = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+            pieces = [j for j in np.argsort(-ext) if j > 0 and ext[j] >= 0.015 * W][:7]
+            groups = [(a,) for a in pieces] + [(a, b) for i, a in enumerate(pieces) for b in pieces[i + 1 :]]
+            tp = t[sel]
+            for g in groups:
+                inside = np.isin(pl, g)
+                if inside.sum() < 12 or np.ptp(tp[inside]) < 0.5 * min_chord * W:
+                    continue  # (too short along the line to be most of an arc)
+                pts = Q[inside]
+                arc = _arc_along(pts, Q, front.line, d, (t0, t1), side, tol, W, min_chord, max_rise)
+                if arc is not None and (best is None or arc[0] > best[0]):
+                    best = arc
+        if best is not None:
+            found.append((best[0], PaintArc(arc=best[1], front=front)))
+    found.sort(key=lambda x: -x[0])
+    return [a for _, a in found[:max_arcs]]
+
+
+def _arc_along(pts, Q, line, d, ends, side, tol, W, min_chord, max_rise):
+    """:func:`paint_arcs`' test of one piece (or pair of pieces) ``pts``:
+    (covered length px, DetectedEllipse) or None. The piece's ellipse is found
+    by RANSAC (a player standing on the arc joins its piece), then refitted
+    to the paint pixels ``Q`` near it."""
+    C = _ransac_conic(pts, tol)
+    if C is None:
+        return None
+    try:
+        X = intersect_line_conic(C, line)
+        X = X[:, :2] / X[:, 2:]
+    except ValueError:
+        return None
+    ta, tb = np.sort(X @ d)
+    t0, t1 = ends
+    L = t1 - t0
+    if tb - ta < min_chord * W or ta < t0 - 0.1 * L or tb > t1 + 0.1 * L:
+        return None
+    dist = np.abs(sampson_distance(Q, C))
+    tq = Q @ d
+    inl = Q[(dist < tol) & (tq > ta) & (tq < tb)]
+    if len(inl) < 12 or _covered(inl @ d, W) < 0.5 * (tb - ta):
+        return None
+    try:
+        e = ellipse_from_conic(C)
+    except ValueError:
+        return None
+    for _ in range(2):  # refined to all the arc's pixels near it (Sampson distance), twice
+        try:
+            e = refine_ellipse(inl[:: max(1, len(inl) // 150)], e, residual="sampson", max_nfev=30).ellipse
+            C = conic_from_ellipse(e)
+            X = intersect_line_conic(C, line)
+            X = X[:, :2] / X[:, 2:]
+        except ValueError:
+            return None
+        ta, tb = np.sort(X @ d)
+        dist = np.abs(sampson_distance(Q, C))
+        keep = (dist < tol) & (tq > ta) & (tq < tb)
+        if keep.sum() < 12:
+            return None
+        inl, r = Q[keep], dist[keep]
+    rise = float(np.max(side * (inl @ line[:2] + line[2])))
+    if tb - ta < min_chord * W or rise < 3 * tol or rise > max_rise * (tb - ta):
+        return None
+    rms = float(np.sqrt(np.mean(r * r)))
+    # curved: its pixels lie further from their best straight line than from
+    # the ellipse (a line that meets the front line at a corner, a touchline
+    # or the boards, fits a long flat ellipse as well as a line)
+    vx, vy, x0, y0 = cv2.fitLine(inl.astype(np.float32), cv2.DIST_L2, 0, 0.01, 0.01).ravel()
+    if np.sqrt(np.mean(((inl - (x0, y0)) @ (-vy, vx)) ** 2)) < max(tol, 3.0 * rms):
+        return None
+    covered = _covered(inl @ d, W)
+    if covered < 0.5 * (tb - ta):
+        return None
+    return covered, DetectedEllipse(ellipse=e, conic=normalize_conic(C), points=inl, rms=rms, coverage=float(covered / (tb - ta)), score=float(min(1.0, covered / (tb - ta))), kind="arc")
+
+
+def _covered(t: np.ndarray, W: int) -> float:
+    """Length (px) of the positions ``t`` along a line that pixels cover (in
+    steps of a pixel of a 1280-wide frame, at least one pixel)."""
+    step = max(1.0, W / 1280)
+    return len(np.unique(np.round(t / step).astype(np.int64))) * step
+
+
+def _conic_design(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hartley's similarity ``T`` of ``pts`` (N, 2) and the conic design
+    matrix (N, 6) of the normalised points: rows (x^2, xy, y^2, x, y, 1)."""
+    T = hartley_normalization(pts)
+    q = pts * T[0, 0] + T[:2, 2]
+    x, y = q[:, 0], q[:, 1]
+    return T, np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
+
+
+def _conic_matrix(c: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(3, 3) conic in pixels of the coefficients ``c`` (6,) of normalised points."""
+    a, b, cc, d, e, f = c
+    return T.T @ np.array([[a, b / 2, d / 2], [b / 2, cc, e / 2], [d / 2, e / 2, f]]) @ T
+
+
+def _ransac_conic(pts: np.ndarray, tol: float, *, samples: int = 150, max_points: int = 300) -> np.ndarray | None:
+    """The ellipse (3, 3 conic, pixels) through 5 of ``pts`` (N, 2) with the
+    most of them within ``tol`` (Sampson distance), from ``samples`` random
+    5-point sets (a fixed seed: the same frame gives the same arcs); None
+    without one. Hartley-normalised; one batched SVD."""
+    if len(pts) > max_points:
+        pts = pts[np.linspace(0, len(pts) - 1, max_points).astype(np.int64)]
+    T, D = _conic_design(pts)
+    x, y = D[:, 3], D[:, 4]
+    rng = np.random.default_rng(len(pts))
+    idx = np.argpartition(rng.random((samples, len(D))), 5, axis=1)[:, :5]  # 5 distinct points a sample
+    _, _, Vt = np.linalg.svd(D[idx])
+    c = Vt[:, -1]  # (S, 6)
+    ell = c[:, 1] ** 2 - 4 * c[:, 0] * c[:, 2] < 0
+    if not ell.any():
+        return None
+    c = c[ell]
+    F = c @ D.T  # (S, N)
+    gx = 2 * c[:, :1] * x + c[:, 1:2] * y + c[:, 3:4]
+    gy = c[:, 1:2] * x + 2 * c[:, 2:3] * y + c[:, 4:5]
+    dist = np.abs(F) / np.maximum(np.hypot(gx, gy), 1e-12) / T[0, 0]
+    return _conic_matrix(c[int(np.argmax((dist < tol).sum(axis=1)))], T)

@@ -10,7 +10,7 @@ import numpy as np
 
 from geometry.conics import Ellipse
 
-__all__ = ["DetectedLine", "DetectedEllipse", "Detections"]
+__all__ = ["DetectedLine", "DetectedEllipse", "PaintArc", "Detections"]
 
 
 @dataclass
@@ -85,6 +85,21 @@ class DetectedEllipse:
             "score": round(float(self.score), 3),
             "support": int(len(self.points)),
         }
+
+
+@dataclass
+class PaintArc:
+    """A penalty arc found in the paint (:func:`arstream.detect.paint.paint_arcs`).
+
+    Attributes
+    ----------
+    arc : DetectedEllipse, ``kind="arc"``: the arc's ellipse and its pixels (frame pixels)
+    front : DetectedLine, the straight line the arc leaves and comes back to
+        (the penalty area's front line)
+    """
+
+    arc: DetectedEllipse
+    front: DetectedLine
 
 
 class _LazyMask:
