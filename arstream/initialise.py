@@ -324,7 +324,7 @@ def circle_view_cameras(view: PaintView, size, *, principal_point, pitch: PitchM
     return out
 
 
-def penalty_arc_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 2, focals_per_width=np.geomspace(0.4, 10.0, 18), refine: bool = False) -> list[Camera]:
+def penalty_arc_cameras(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 2, focals_per_width=np.geomspace(0.4, 10.0, 35), refine: bool = False) -> list[Camera]:
     """Hypotheses of a penalty-area view from a penalty arc and the penalty
     area's front line (the paint's arcs, :attr:`PaintView.arcs`).
 
