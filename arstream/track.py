@@ -295,7 +295,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0, "polished": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -604,9 +604,13 @@ class Tracker:
             view = view or self._paint_view(index, image, det)
             r, sup = rival or initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
             if r is not None and sup >= self.cfg.paint_accept:
-                meas, source = r, "paint"
+                rr = self._polished(index, r, lidx, image)
+                meas, source = rr, "paint"
                 self.stats["paint_inits"] += 1
-                self._paint = True
+                # (the clip needs its paint pixels tracked when the detector's
+                # lines do not back the paint's camera; when they do, only the
+                # paint's hypotheses were needed: a penalty arc's, say)
+                self._paint = self._paint or rr is r
                 self._kf = None
                 if self.centre is not None:
                     # the same tripod? the frozen centre, unless the frame's
@@ -1100,6 +1104,32 @@ class Tracker:
             self.stats["paint_rivals"] += 1
             return rp, sp
         return None
+
+    def _polished(self, index: int, r: Refinement, lidx: LineIndex | None, image: np.ndarray | None) -> Refinement:
+        """A camera from the paint initialiser, refined to the detector's line
+        pixels where they back it: the paint's are whole mask pixels, and a
+        tripod centre frozen from such a start keeps their error (a synthetic
+        clip letterboxed, whose first frame only the penalty arc's
+        hypotheses register: 1.0 px off on every frame, 0.1 px polished).
+        Kept when the refinement finds a detected pixel near as much of the
+        model as an initialisation must (``init_accept``: the ridge detector
+        finds few of a real frame's faint lines, and then the paint's camera
+        stays) and the frame's paint backs it as well (line support within
+        0.02 of ``r``'s). Returns ``r`` itself when not polished."""
+        if lidx is None or len(lidx) < 30:
+            return r
+        try:
+            rr = refine_camera(r.camera, lidx, self.size, self.model, estimate_k1=self._want_k1(r.camera.focal), radii=(5.0, 3.0, 2.0))
+        except ValueError:
+            return r
+        if rr.confidence < self.cfg.init_accept or not plausible(rr.camera.center, rr.camera.focal, self.size[0], self.pitch)[0]:
+            return r
+        s0, _ = self._support(index, r.camera, image)
+        s1, _ = self._support(index, rr.camera, image)
+        if s0 is None or s1 is None or s1 < s0 - 0.02:
+            return r
+        self.stats["polished"] += 1
+        return rr
 
     def _another_camera(self, index: int, cam: Camera) -> bool:
         """Is a fresh camera far from the tripod centre, which the frozen centre
