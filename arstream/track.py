@@ -73,6 +73,11 @@ class TrackerConfig:
     min_explained: float = 0.9  # share of them within 2.5 px of the projected markings
     trusted: float = 0.9  # support share of a measurement that no motion gate rejects (fast pans)
     init_accept: float = INIT_ACCEPT  # least support share to accept an initialisation
+    # least share of the model in view near a detected line pixel for a paint
+    # start polished to the detector's pixels (the initialiser's own level for
+    # a camera it need not compare: the artificial-turf clip's first frame
+    # polishes at 0.60 and needs its paint tracked; a synthetic frame, 0.83)
+    polish_accept: float = 0.75
     max_coast: int = 12  # frames carried by the filter without a measurement
     gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
     cut_threshold: float = 28.0  # mean absolute thumbnail change (grey levels) that signals a cut
@@ -1111,18 +1116,18 @@ class Tracker:
         tripod centre frozen from such a start keeps their error (a synthetic
         clip letterboxed, whose first frame only the penalty arc's
         hypotheses register: 1.0 px off on every frame, 0.1 px polished).
-        Kept when the refinement finds a detected pixel near as much of the
-        model as an initialisation must (``init_accept``: the ridge detector
-        finds few of a real frame's faint lines, and then the paint's camera
-        stays) and the frame's paint backs it as well (line support within
-        0.02 of ``r``'s). Returns ``r`` itself when not polished."""
+        Kept when the refinement finds a detected pixel near most of the model
+        in view (``polish_accept``: the ridge detector finds few of a real
+        frame's faint lines, and then the paint's camera stays) and the
+        frame's paint backs it as well (line support within 0.02 of
+        ``r``'s). Returns ``r`` itself when not polished."""
         if lidx is None or len(lidx) < 30:
             return r
         try:
             rr = refine_camera(r.camera, lidx, self.size, self.model, estimate_k1=self._want_k1(r.camera.focal), radii=(5.0, 3.0, 2.0))
         except ValueError:
             return r
-        if rr.confidence < self.cfg.init_accept or not plausible(rr.camera.center, rr.camera.focal, self.size[0], self.pitch)[0]:
+        if rr.confidence < self.cfg.polish_accept or not plausible(rr.camera.center, rr.camera.focal, self.size[0], self.pitch)[0]:
             return r
         s0, _ = self._support(index, r.camera, image)
         s1, _ = self._support(index, rr.camera, image)
