@@ -189,3 +189,22 @@ def test_network_source_is_paced_and_rebased(clip, tmp_path, capsys):
     with av.open(str(tmp_path / "rec.mp4")) as c:
         pts = [f.pts for f in c.decode(video=0)]
     assert len(pts) == s["frames"] and pts[0] == 0
+
+
+def test_a_file_inside_black_bars_is_streamed_on_its_picture(clip, tmp_path):
+    # as process: the picture inside the bars analysed with the frame's
+    # principal point, the cameras the frame's (a URL or device: whole).
+    # Letterboxed (pillarboxed, this clip's view loses the halfway line and
+    # most of the circle to the bars: no camera, in process too)
+    from arstream.evaluate import score
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bench"))
+    from real_bars import barred_copy
+
+    barred = barred_copy(clip / "clip.mp4", tmp_path / "barred.mp4", "letter:0.125")
+    s = arstream.stream(str(barred), cameras_out=tmp_path / "c.jsonl", handle_signals=False)
+    x0, y0, x1, y1 = s.picture
+    assert max(abs(x0), abs(640 - x1), abs(y0 - 45), abs(360 - y1 - 45)) <= 4
+    assert "picture inside black bars" in s.line()
+    sc = score(read_jsonl(clip / "truth.jsonl"), read_jsonl(tmp_path / "c.jsonl"), (640, 360))
+    assert sc.coverage >= 0.9 and sc.median <= 0.5, (sc.coverage, sc.median, sc.p95)

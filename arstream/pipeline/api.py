@@ -454,6 +454,8 @@ def stream(
 ) -> Summary:
     """Live mode: causal tracking (no look-ahead) of a file, URL or capture device,
     logged to rerun. Mirrors ``arstream stream --source SRC [--rerun ...] [--realtime]``.
+    A file inside black bars is analysed on its picture, as :func:`process`
+    does (``Summary.picture``); a URL or a device, whole.
 
     Parameters
     ----------
@@ -489,10 +491,13 @@ def stream(
     _check_outputs(source, output=output, cameras_out=cameras_out, max_frames=max_frames)
     pitch = _pitch_model(pitch)
     _load_kernels()
+    # (a file's picture inside black bars, as process finds it; a URL or a
+    # device is not read twice, and is analysed whole)
+    area = _picture_area(source) if format is None and os.path.isfile(os.fspath(source)) else None
     with open_live(source, format=format, options=options, reconnect=reconnect, timeout=timeout, report=warn) as src:
         W, H = src.width, src.height
         rt = src.is_live if realtime is None else bool(realtime)
-        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0))
+        an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=area)
         logger_box: list = []
         track_box: list = []
 
@@ -519,6 +524,7 @@ def stream(
         pipe.summary.output = os.fspath(output) if output is not None else None
         pipe.summary.cameras = os.fspath(cameras_out) if cameras_out is not None else None
         pipe.summary.missing = _missing(*stages)
+        pipe.summary.picture = an.picture
         try:
             return pipe.run(handle_signals=handle_signals)
         except SourceLost as exc:  # the outputs are finalised: say what they hold
