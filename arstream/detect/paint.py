@@ -248,12 +248,9 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
     times its chord; its pixels lie further from their best straight line
     than from the ellipse (3 times its RMS distance, at least ``tol``: a
     touchline meeting the front line at a corner fits a long flat ellipse
-    as well as a line); the paint pixels beyond the line within ``tol``
+    as well as a line); and the paint pixels beyond the line within ``tol``
     of the ellipse (Sampson distance) cover at least half of the chord's
-    length; and those across the line near it, less than a quarter of that
-    (a penalty arc ends at its front line: the centre circle beside the
-    halfway line goes on across it). The arc with the most covered length
-    is kept for each line.
+    length. The arc with the most covered length is kept for each line.
 
     Parameters
     ----------
@@ -290,11 +287,6 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
             if len(sel) < 20:
                 continue
             Q = P[sel]
-            # (the paint well across the line, where a circle that crosses it
-            # goes on, less the straight lines': a penalty arc's circle goes on
-            # inside the penalty area across the goal area's front line)
-            across = P[(u < -3 * tol) & (u > -max_rise * L) & (t > t0 - 0.1 * L) & (t < t1 + 0.1 * L)]
-            across = across[~_near_lines(across, lines, 2 * tol)]
             raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 255
             k, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(raster, np.ones((3, 3), np.uint8)), connectivity=8)
             raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 0
@@ -309,7 +301,7 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
                 if inside.sum() < 12 or np.ptp(tp[inside]) < 0.5 * min_chord * W:
                     continue  # (too short along the line to be most of an arc)
                 pts = Q[inside]
-                arc = _arc_along(pts, Q, across, front.line, d, (t0, t1), side, tol, W, min_chord, max_rise)
+                arc = _arc_along(pts, Q, front.line, d, (t0, t1), side, tol, W, min_chord, max_rise)
                 if arc is not None and (best is None or arc[0] > best[0]):
                     best = arc
         if best is not None:
@@ -318,7 +310,7 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
     return [a for _, a in found[:max_arcs]]
 
 
-def _arc_along(pts, Q, across, line, d, ends, side, tol, W, min_chord, max_rise):
+def _arc_along(pts, Q, line, d, ends, side, tol, W, min_chord, max_rise):
     """:func:`paint_arcs`' test of one piece (or pair of pieces) ``pts``:
     (covered length px, DetectedEllipse) or None. The piece's ellipse is found
     by RANSAC (a player standing on the arc joins its piece), then refitted
@@ -372,23 +364,7 @@ def _arc_along(pts, Q, across, line, d, ends, side, tol, W, min_chord, max_rise)
     covered = _covered(inl @ d, W)
     if covered < 0.5 * (tb - ta):
         return None
-    # a penalty arc ends at its front line; a circle that goes on across the
-    # line (the centre circle beside the halfway line) is no penalty arc
-    if len(across) and _covered(across[np.abs(sampson_distance(across, C)) < tol] @ d, W) > 0.25 * covered:
-        return None
     return covered, DetectedEllipse(ellipse=e, conic=normalize_conic(C), points=inl, rms=rms, coverage=float(covered / (tb - ta)), score=float(min(1.0, covered / (tb - ta))), kind="arc")
-
-
-def _near_lines(pts: np.ndarray, lines: list[DetectedLine], dist: float) -> np.ndarray:
-    """(N,) bool: which of ``pts`` (N, 2) lie within ``dist`` of one of the
-    ``lines``' segments (between their endpoints, ``dist`` to spare)."""
-    near = np.zeros(len(pts), bool)
-    for dl in lines:
-        d = np.array([dl.line[1], -dl.line[0]])
-        a, b = np.sort(dl.endpoints @ d)
-        tp = pts @ d
-        near |= (np.abs(pts @ dl.line[:2] + dl.line[2]) < dist) & (tp > a - dist) & (tp < b + dist)
-    return near
 
 
 def _covered(t: np.ndarray, W: int) -> float:
