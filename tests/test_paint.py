@@ -645,6 +645,21 @@ def test_paint_arcs_find_no_arc_without_one():
     assert len(view.lines) >= 4 and view.arcs == []
 
 
+def test_the_centre_circle_beside_the_halfway_line_is_no_penalty_arc():
+    # either half of the centre circle leaves the halfway line and comes back
+    # to it, as a penalty arc does its front line; but a broadcast camera
+    # sees it rise off the line by more than its chord along it (a half
+    # circle seen from the side), and a penalty arc by at most 0.6 of its
+    # chord (paint_arcs' max_rise; with 2, this view's half circle passes)
+    from cameras import looking_at
+
+    cam = looking_at((0.0, -45.0, 14.0), (0.0, 0.0, 0.0), 1.4 * 1280, (1280, 720))
+    img = _drawn(cam)
+    view = paint_view(img, detect(img))
+    assert any(abs(dl.line[0]) > 0.9 for dl in view.lines)  # (the halfway line is one of its lines)
+    assert view.arcs == []
+
+
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 def test_long_lens_penalty_views_register_from_their_arc():
     # every 25th frame of israel_league_wide from 150 to 375 (a low camera's
