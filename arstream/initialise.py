@@ -197,7 +197,7 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, refine_family: bool = False) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, refine_family: bool = False, penalty_arcs: bool = False) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -217,8 +217,17 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     lying on painted lines rather than along bright steps
     (:func:`arstream.support.on_lines`) (a still: :func:`register_frame`).
     ``refine_family``: the centre circle's family refined before it is
-    judged (:func:`circle_view_cameras`' ``refine``). Returns (refinement,
-    its support), or (None, None) when no hypothesis was found.
+    judged (:func:`circle_view_cameras`' ``refine``, and the penalty arc's,
+    :func:`penalty_arc_cameras`). ``penalty_arcs``: the penalty arc's
+    hypotheses too (a still, :func:`register_frame`). A tracker leaves
+    them out: it keeps its tripod centre from its first camera, and on the
+    shared clips re-encoded at 480 rows (``bench/real_perturbed.py``) an
+    arc's camera a few pixels off, where the lines gave none or a weaker
+    one, started the centre off (``israel_league_wide`` at 854 x 480 crf 12
+    from frame 120: 4.6 -> 22.5 % of the frames more than 5 px from the
+    full-size run's; the same run's figures with them only where nothing
+    else is kept). Returns (refinement, its support), or (None, None) when
+    no hypothesis was found.
     """
     W, H = size
     r = max(2, int(round(2.5 * W / 1280)))
@@ -226,9 +235,16 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     found = view.lines[:10]
     hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
     cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
-    cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
-    if not cands:
-        return None, None
+    if penalty_arcs:
+        cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
+    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines)
+    return (best, best_s) if best is not None else (None, None)
+
+
+def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None) -> tuple[Refinement | None, float]:
+    """:func:`initialise_from_paint`'s judgement of its hypotheses ``cands``:
+    (the best refinement, its line support), or (None, -1)."""
+    W, H = size
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
     best, best_s, best_score = None, -1.0, -1.0
@@ -256,7 +272,7 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score
-    return (best, best_s) if best is not None else (None, None)
+    return best, best_s
 
 
 def paint_score(camera: Camera, support: float, view: PaintView, size, model: ModelSamples) -> float:
@@ -428,14 +444,15 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
-def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections) -> tuple[Refinement | None, float | None]:
+def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True) -> tuple[Refinement | None, float | None]:
     """The paint initialiser (:func:`initialise_from_paint`) as for a frame
     without temporal help: with the detector's ellipses and lines, the centre
     circle's family refined, and hypotheses off the grass
     (:data:`arstream.support.ON_GRASS`) or along bright steps
-    (:data:`arstream.support.ON_LINES`) left out. :func:`register_frame`'s,
-    and the tracker's against its own fresh camera."""
-    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True)
+    (:data:`arstream.support.ON_LINES`) left out. :func:`register_frame`'s
+    (with the penalty arc's hypotheses), and the tracker's against its own
+    fresh camera (without them: :func:`initialise_from_paint`)."""
+    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True, penalty_arcs=penalty_arcs)
 
 
 def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7) -> str | None:

@@ -73,11 +73,6 @@ class TrackerConfig:
     min_explained: float = 0.9  # share of them within 2.5 px of the projected markings
     trusted: float = 0.9  # support share of a measurement that no motion gate rejects (fast pans)
     init_accept: float = INIT_ACCEPT  # least support share to accept an initialisation
-    # least share of the model in view near a detected line pixel for a paint
-    # start polished to the detector's pixels (the initialiser's own level for
-    # a camera it need not compare: the artificial-turf clip's first frame
-    # polishes at 0.60 and needs its paint tracked; a synthetic frame, 0.83)
-    polish_accept: float = 0.75
     max_coast: int = 12  # frames carried by the filter without a measurement
     gate: float = 30.0  # Mahalanobis gate (chi-square, 4 dof; 18.5 is p = 0.001)
     cut_threshold: float = 28.0  # mean absolute thumbnail change (grey levels) that signals a cut
@@ -300,7 +295,7 @@ class Tracker:
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0, "polished": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -609,13 +604,9 @@ class Tracker:
             view = view or self._paint_view(index, image, det)
             r, sup = rival or initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
             if r is not None and sup >= self.cfg.paint_accept:
-                rr = self._polished(index, r, lidx, image)
-                meas, source = rr, "paint"
+                meas, source = r, "paint"
                 self.stats["paint_inits"] += 1
-                # (the clip needs its paint pixels tracked when the detector's
-                # lines do not back the paint's camera; when they do, only the
-                # paint's hypotheses were needed: a penalty arc's, say)
-                self._paint = self._paint or rr is r
+                self._paint = True
                 self._kf = None
                 if self.centre is not None:
                     # the same tripod? the frozen centre, unless the frame's
@@ -1099,7 +1090,7 @@ class Tracker:
         if backed and sup >= PAINT_CHECK:
             return None
         self._paint_at = index
-        rp, sp = still_paint_camera(view, self.size, principal_point=self.pp, pitch=self.pitch, detections=det)
+        rp, sp = still_paint_camera(view, self.size, principal_point=self.pp, pitch=self.pitch, detections=det, penalty_arcs=False)
         if rp is None or sp < self.cfg.paint_accept:
             return None
         sp2, spread_p = self._support(index, rp.camera, view.image)
@@ -1109,32 +1100,6 @@ class Tracker:
             self.stats["paint_rivals"] += 1
             return rp, sp
         return None
-
-    def _polished(self, index: int, r: Refinement, lidx: LineIndex | None, image: np.ndarray | None) -> Refinement:
-        """A camera from the paint initialiser, refined to the detector's line
-        pixels where they back it: the paint's are whole mask pixels, and a
-        tripod centre frozen from such a start keeps their error (a synthetic
-        clip letterboxed, whose first frame only the penalty arc's
-        hypotheses register: 1.0 px off on every frame, 0.1 px polished).
-        Kept when the refinement finds a detected pixel near most of the model
-        in view (``polish_accept``: the ridge detector finds few of a real
-        frame's faint lines, and then the paint's camera stays) and the
-        frame's paint backs it as well (line support within 0.02 of
-        ``r``'s). Returns ``r`` itself when not polished."""
-        if lidx is None or len(lidx) < 30:
-            return r
-        try:
-            rr = refine_camera(r.camera, lidx, self.size, self.model, estimate_k1=self._want_k1(r.camera.focal), radii=(5.0, 3.0, 2.0))
-        except ValueError:
-            return r
-        if rr.confidence < self.cfg.polish_accept or not plausible(rr.camera.center, rr.camera.focal, self.size[0], self.pitch)[0]:
-            return r
-        s0, _ = self._support(index, r.camera, image)
-        s1, _ = self._support(index, rr.camera, image)
-        if s0 is None or s1 is None or s1 < s0 - 0.02:
-            return r
-        self.stats["polished"] += 1
-        return rr
 
     def _another_camera(self, index: int, cam: Camera) -> bool:
         """Is a fresh camera far from the tripod centre, which the frozen centre
