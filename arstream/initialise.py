@@ -25,7 +25,7 @@ from arstream.detect.paint import paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
-from arstream.support import ON_GRASS, ON_LINES, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
+from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
@@ -60,6 +60,15 @@ PAINT_CHECK = 0.95
 #: 6.1 and 6.0 % of the frames more than 20 px from the full-size run's
 #: camera, 80.1 and 77.6 -> 81.9 and 80.8 % within 5 px.)
 RECALL_WEIGHT = 0.5
+#: least line support of the markings along the pitch alone
+#: (:func:`arstream.support.along_support`) of a camera from the penalty
+#: arc's family: its members refined to the paint can slide along the lines
+#: across the pitch (nearly parallel through a long lens), which stay on
+#: their paint, and lay the areas' short sides off theirs (the line
+#: support's own 0.7; ``israel_league_wide`` frame 275 pillarboxed: 0.38 at
+#: 24.7 px from its reference, the right cameras of its reference frames
+#: 0.95-1.0)
+MIN_ALONG = 0.7
 
 
 def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
@@ -235,20 +244,23 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     found = view.lines[:10]
     hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
     cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
+    n_lines = len(cands)
     if penalty_arcs:
         cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
-    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines)
+    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, along_from=n_lines)
     return (best, best_s) if best is not None else (None, None)
 
 
-def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None) -> tuple[Refinement | None, float]:
+def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, along_from: int | None = None) -> tuple[Refinement | None, float]:
     """:func:`initialise_from_paint`'s judgement of its hypotheses ``cands``:
-    (the best refinement, its line support), or (None, -1)."""
+    (the best refinement, its line support), or (None, -1). Those from
+    ``along_from`` on (the penalty arc's) must also keep the markings along
+    the pitch on their paint (:data:`MIN_ALONG`)."""
     W, H = size
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
     best, best_s, best_score = None, -1.0, -1.0
-    for cam in cands:
+    for j, cam in enumerate(cands):
         try:
             rf = refine_camera(cam, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
             if estimate_k1 and rf.n_visible >= 150 and k1_observable(rf.camera.focal, size):
@@ -269,6 +281,8 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
             continue  # markings off the grass: a member of a long lens's depth-zoom family too far away
         if min_on_lines is not None and (on_lines(rf.camera, view.image, view.bright, pitch) or 1.0) < min_on_lines:
             continue  # markings along bright steps (the grass's edge, a track, the boards), not painted lines
+        if along_from is not None and j >= along_from and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < MIN_ALONG:
+            continue  # slid along the lines across the pitch, off the areas' sides
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score

@@ -10,6 +10,7 @@ and, on the shared real stills, registration against the reference cameras
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import cv2
@@ -690,3 +691,45 @@ def test_long_lens_penalty_views_register_from_their_arc():
             if d > 20.0:
                 wrong.append((k, d))
     assert near >= 7 and not wrong, (near, wrong)
+
+
+def test_along_support_tells_a_camera_slid_along_the_lines_across_the_pitch():
+    # the markings of a penalty-area view as the frame's paint; the camera
+    # moved 4 m along the goal line keeps the lines across the pitch (goal
+    # line, the areas' fronts) on their paint and lays the areas' sides off
+    # theirs
+    from arstream.support import along_support
+
+    cam, _, _ = _arc_view(True)
+    W, H = 1280, 720
+    uv = np.floor(cam.project(marking_points()) + 0.5)
+    q = uv[np.all(np.isfinite(uv), axis=1) & (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)].astype(int)
+    paint = np.zeros((H, W), np.uint8)
+    paint[q[:, 1], q[:, 0]] = 1
+    paint = cv2.dilate(paint, np.ones((5, 5), np.uint8)) > 0
+    slid = Camera(K=cam.K, R=cam.R, t=cam.t - cam.R @ np.array([0.0, 4.0, 0.0]))
+    assert along_support(cam, paint) == 1.0
+    assert along_support(slid, paint) < 0.3
+    # (no markings along the pitch in view: undefined)
+    assert along_support(cam, np.zeros((H, W), bool), PITCH, min_points=10**6) is None
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
+    # israel_league_wide frame 275 with 12.5 % pillarbox bars: the penalty
+    # arc's family member refined to the paint slid along the lines across
+    # the pitch (24.7 px from the reference, line support 0.90) and was drawn;
+    # the areas' sides off their paint (0.38 of the markings along the
+    # pitch on paint) turn it away
+    import av
+
+    from arstream.initialise import register_image
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    from real_graphics import barred
+
+    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
+        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 275).to_ndarray(format="bgr24")
+    est = register_image(barred(img, "pillar:0.125"))
+    ref, pitch, _ = _reference("israel_league_wide", 275)
+    assert est.camera is None or _distance_1280(ref, est.camera, img.shape[1::-1], pitch) <= MAX_DISTANCE_1280, est.info
