@@ -60,14 +60,14 @@ PAINT_CHECK = 0.95
 #: 6.1 and 6.0 % of the frames more than 20 px from the full-size run's
 #: camera, 80.1 and 77.6 -> 81.9 and 80.8 % within 5 px.)
 RECALL_WEIGHT = 0.5
-#: least line support of the markings along the pitch alone
+#: least line support of the goal and penalty areas' sides alone
 #: (:func:`arstream.support.along_support`) of a camera from the penalty
 #: arc's family: its members refined to the paint can slide along the lines
 #: across the pitch (nearly parallel through a long lens), which stay on
 #: their paint, and lay the areas' short sides off theirs (the line
 #: support's own 0.7; ``israel_league_wide`` frame 275 pillarboxed: 0.38 at
-#: 24.7 px from its reference, the right cameras of its reference frames
-#: 0.95-1.0)
+#: 24.7 px from its reference; the right cameras of its reference frames
+#: 0.95-1.0, Premier League frame 01's 0.94)
 MIN_ALONG = 0.7
 
 
@@ -254,8 +254,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
 def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, along_from: int | None = None) -> tuple[Refinement | None, float]:
     """:func:`initialise_from_paint`'s judgement of its hypotheses ``cands``:
     (the best refinement, its line support), or (None, -1). Those from
-    ``along_from`` on (the penalty arc's) must also keep the markings along
-    the pitch on their paint (:data:`MIN_ALONG`)."""
+    ``along_from`` on (the penalty arc's) must also keep the areas' sides
+    on their paint (:data:`MIN_ALONG`)."""
     W, H = size
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
@@ -282,7 +282,7 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
         if min_on_lines is not None and (on_lines(rf.camera, view.image, view.bright, pitch) or 1.0) < min_on_lines:
             continue  # markings along bright steps (the grass's edge, a track, the boards), not painted lines
         if along_from is not None and j >= along_from and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < MIN_ALONG:
-            continue  # slid along the lines across the pitch, off the areas' sides
+            continue  # slid along the lines across the pitch, the areas' sides off their paint
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score

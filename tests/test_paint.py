@@ -697,7 +697,8 @@ def test_along_support_tells_a_camera_slid_along_the_lines_across_the_pitch():
     # the markings of a penalty-area view as the frame's paint; the camera
     # moved 4 m along the goal line keeps the lines across the pitch (goal
     # line, the areas' fronts) on their paint and lays the areas' sides off
-    # theirs
+    # theirs (the touchlines are not counted: a frame without them on paint
+    # changes nothing)
     from arstream.support import along_support
 
     cam, _, _ = _arc_view(True)
@@ -710,6 +711,14 @@ def test_along_support_tells_a_camera_slid_along_the_lines_across_the_pitch():
     slid = Camera(K=cam.K, R=cam.R, t=cam.t - cam.R @ np.array([0.0, 4.0, 0.0]))
     assert along_support(cam, paint) == 1.0
     assert along_support(slid, paint) < 0.3
+    uv = np.floor(cam.project_pitch(np.concatenate([PITCH["touchline_near"].sample(0.1), PITCH["touchline_far"].sample(0.1)])) + 0.5)
+    q = uv[np.all(np.isfinite(uv), axis=1) & (uv[:, 0] >= 3) & (uv[:, 0] < W - 3) & (uv[:, 1] >= 3) & (uv[:, 1] < H - 3)].astype(int)
+    assert len(q) > 100  # (touchlines in view)
+    bare = paint.copy()
+    for dx in range(-3, 4):
+        for dy in range(-3, 4):
+            bare[q[:, 1] + dy, q[:, 0] + dx] = False
+    assert along_support(cam, bare) == along_support(cam, paint)
     # (no markings along the pitch in view: undefined)
     assert along_support(cam, np.zeros((H, W), bool), PITCH, min_points=10**6) is None
 
