@@ -353,10 +353,8 @@ def along_support(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = N
     often faint or at the boards' edge in a right camera's view, the
     Premier League frame 01: 0.48 with them, 0.94 without.)"""
     pitch = pitch or PitchModel()
-    segs = [m for m in pitch.segments if m.start[1] == m.end[1] and not m.name.startswith("touchline")]
-    XY = np.concatenate([m.sample(spacing) for m in segs], axis=0)
-    sup, _, _ = _on_mask(camera.project(np.column_stack([XY, np.zeros(len(XY))])), np.zeros(len(XY), np.int64), mask, 1, 0.5)
-    return sup.n_supported / sup.n_inside if sup.n_inside >= min_points else None
+    XY = np.concatenate([m.sample(spacing) for m in pitch.segments if m.start[1] == m.end[1] and not m.name.startswith("touchline")], axis=0)
+    return line_support(camera, mask, np.column_stack([XY, np.zeros(len(XY))]), min_points=min_points).share
 
 
 def backs(support: float | None, spread: float, min_support: float) -> bool:

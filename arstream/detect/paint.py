@@ -29,8 +29,8 @@ import cv2
 import numpy as np
 
 from geometry.conics import conic_from_ellipse, ellipse_from_conic, intersect_line_conic, normalize_conic, refine_ellipse, sampson_distance
-from geometry.lines import hartley_normalization
 
+from .kernels.ellipses import hartley_monomials
 from .results import DetectedEllipse, DetectedLine, PaintArc
 
 __all__ = ["paint_mask", "paint_lines", "paint_arcs", "PAINT_CONTRAST", "PAINT_BOX"]
@@ -288,7 +288,7 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
                 continue
             Q = P[sel]
             raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 255
-            k, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(raster, np.ones((3, 3), np.uint8)), connectivity=8)
+            _, lab, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(raster, np.ones((3, 3), np.uint8)), connectivity=8)
             raster[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)] = 0
             pl = lab[Q[:, 1].astype(np.int64), Q[:, 0].astype(np.int64)]
             # pieces of some length (a player's blob is short), longest first
@@ -316,14 +316,9 @@ def _arc_along(pts, Q, line, d, ends, side, tol, W, min_chord, max_rise):
     by RANSAC (a player standing on the arc joins its piece), then refitted
     to the paint pixels ``Q`` near it."""
     C = _ransac_conic(pts, tol)
-    if C is None:
+    if C is None or (tt := _crossings(C, line, d)) is None:
         return None
-    try:
-        X = intersect_line_conic(C, line)
-        X = X[:, :2] / X[:, 2:]
-    except ValueError:
-        return None
-    ta, tb = np.sort(X @ d)
+    ta, tb = tt
     t0, t1 = ends
     L = t1 - t0
     if tb - ta < min_chord * W or ta < t0 - 0.1 * L or tb > t1 + 0.1 * L:
@@ -340,12 +335,12 @@ def _arc_along(pts, Q, line, d, ends, side, tol, W, min_chord, max_rise):
     for _ in range(2):  # refined to all the arc's pixels near it (Sampson distance), twice
         try:
             e = refine_ellipse(inl[:: max(1, len(inl) // 150)], e, residual="sampson", max_nfev=30).ellipse
-            C = conic_from_ellipse(e)
-            X = intersect_line_conic(C, line)
-            X = X[:, :2] / X[:, 2:]
         except ValueError:
             return None
-        ta, tb = np.sort(X @ d)
+        C = conic_from_ellipse(e)
+        if (tt := _crossings(C, line, d)) is None:
+            return None
+        ta, tb = tt
         dist = np.abs(sampson_distance(Q, C))
         keep = (dist < tol) & (tq > ta) & (tq < tb)
         if keep.sum() < 12:
@@ -367,6 +362,17 @@ def _arc_along(pts, Q, line, d, ends, side, tol, W, min_chord, max_rise):
     return covered, DetectedEllipse(ellipse=e, conic=normalize_conic(C), points=inl, rms=rms, coverage=float(covered / (tb - ta)), score=float(min(1.0, covered / (tb - ta))), kind="arc")
 
 
+def _crossings(C: np.ndarray, line: np.ndarray, d: np.ndarray) -> tuple[float, float] | None:
+    """Where the conic ``C`` crosses ``line``: the two positions along the
+    line's direction ``d`` (pixels), in order, or None when it misses it."""
+    try:
+        X = intersect_line_conic(C, line)
+    except ValueError:
+        return None
+    ta, tb = np.sort((X[:, :2] / X[:, 2:]) @ d)
+    return float(ta), float(tb)
+
+
 def _covered(t: np.ndarray, W: int) -> float:
     """Length (px) of the positions ``t`` along a line that pixels cover (in
     steps of a pixel of a 1280-wide frame, at least one pixel)."""
@@ -374,29 +380,15 @@ def _covered(t: np.ndarray, W: int) -> float:
     return len(np.unique(np.round(t / step).astype(np.int64))) * step
 
 
-def _conic_design(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Hartley's similarity ``T`` of ``pts`` (N, 2) and the conic design
-    matrix (N, 6) of the normalised points: rows (x^2, xy, y^2, x, y, 1)."""
-    T = hartley_normalization(pts)
-    q = pts * T[0, 0] + T[:2, 2]
-    x, y = q[:, 0], q[:, 1]
-    return T, np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
-
-
-def _conic_matrix(c: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """(3, 3) conic in pixels of the coefficients ``c`` (6,) of normalised points."""
-    a, b, cc, d, e, f = c
-    return T.T @ np.array([[a, b / 2, d / 2], [b / 2, cc, e / 2], [d / 2, e / 2, f]]) @ T
-
-
 def _ransac_conic(pts: np.ndarray, tol: float, *, samples: int = 150, max_points: int = 300) -> np.ndarray | None:
     """The ellipse (3, 3 conic, pixels) through 5 of ``pts`` (N, 2) with the
     most of them within ``tol`` (Sampson distance), from ``samples`` random
     5-point sets (a fixed seed: the same frame gives the same arcs); None
-    without one. Hartley-normalised; one batched SVD."""
+    without one. Hartley-normalised (the ellipse search's
+    :func:`arstream.detect.kernels.ellipses.hartley_monomials`); one batched SVD."""
     if len(pts) > max_points:
         pts = pts[np.linspace(0, len(pts) - 1, max_points).astype(np.int64)]
-    T, D = _conic_design(pts)
+    _, D, mx, my, sc = hartley_monomials(np.ascontiguousarray(pts, np.float64))
     x, y = D[:, 3], D[:, 4]
     rng = np.random.default_rng(len(pts))
     idx = np.argpartition(rng.random((samples, len(D))), 5, axis=1)[:, :5]  # 5 distinct points a sample
@@ -409,5 +401,7 @@ def _ransac_conic(pts: np.ndarray, tol: float, *, samples: int = 150, max_points
     F = c @ D.T  # (S, N)
     gx = 2 * c[:, :1] * x + c[:, 1:2] * y + c[:, 3:4]
     gy = c[:, 1:2] * x + 2 * c[:, 2:3] * y + c[:, 4:5]
-    dist = np.abs(F) / np.maximum(np.hypot(gx, gy), 1e-12) / T[0, 0]
-    return _conic_matrix(c[int(np.argmax((dist < tol).sum(axis=1)))], T)
+    dist = np.abs(F) / np.maximum(np.hypot(gx, gy), 1e-12) / sc
+    a, b, cc, d, e, f = c[int(np.argmax((dist < tol).sum(axis=1)))]
+    T = np.array([[sc, 0.0, -sc * mx], [0.0, sc, -sc * my], [0.0, 0.0, 1.0]])  # pixels -> normalised
+    return T.T @ np.array([[a, b / 2, d / 2], [b / 2, cc, e / 2], [d / 2, e / 2, f]]) @ T
