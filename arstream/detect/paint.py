@@ -29,8 +29,8 @@ import cv2
 import numpy as np
 
 from geometry.conics import conic_from_ellipse, ellipse_from_conic, intersect_line_conic, normalize_conic, refine_ellipse, sampson_distance
+from geometry.lines import hartley_normalization
 
-from .kernels.ellipses import hartley_monomials
 from .results import DetectedEllipse, DetectedLine, PaintArc
 
 __all__ = ["paint_mask", "paint_lines", "paint_arcs", "PAINT_CONTRAST", "PAINT_BOX"]
@@ -384,12 +384,14 @@ def _ransac_conic(pts: np.ndarray, tol: float, *, samples: int = 150, max_points
     """The ellipse (3, 3 conic, pixels) through 5 of ``pts`` (N, 2) with the
     most of them within ``tol`` (Sampson distance), from ``samples`` random
     5-point sets (a fixed seed: the same frame gives the same arcs); None
-    without one. Hartley-normalised (the ellipse search's
-    :func:`arstream.detect.kernels.ellipses.hartley_monomials`); one batched SVD."""
+    without one. Hartley-normalised (:func:`geometry.lines.hartley_normalization`);
+    one batched SVD."""
     if len(pts) > max_points:
         pts = pts[np.linspace(0, len(pts) - 1, max_points).astype(np.int64)]
-    _, D, mx, my, sc = hartley_monomials(np.ascontiguousarray(pts, np.float64))
-    x, y = D[:, 3], D[:, 4]
+    T = hartley_normalization(pts)  # pixels -> normalised
+    q = pts * T[0, 0] + T[:2, 2]
+    x, y = q[:, 0], q[:, 1]
+    D = np.column_stack([x * x, x * y, y * y, x, y, np.ones_like(x)])
     rng = np.random.default_rng(len(pts))
     idx = np.argpartition(rng.random((samples, len(D))), 5, axis=1)[:, :5]  # 5 distinct points a sample
     _, _, Vt = np.linalg.svd(D[idx])
@@ -401,7 +403,6 @@ def _ransac_conic(pts: np.ndarray, tol: float, *, samples: int = 150, max_points
     F = c @ D.T  # (S, N)
     gx = 2 * c[:, :1] * x + c[:, 1:2] * y + c[:, 3:4]
     gy = c[:, 1:2] * x + 2 * c[:, 2:3] * y + c[:, 4:5]
-    dist = np.abs(F) / np.maximum(np.hypot(gx, gy), 1e-12) / sc
+    dist = np.abs(F) / np.maximum(np.hypot(gx, gy), 1e-12) / T[0, 0]
     a, b, cc, d, e, f = c[int(np.argmax((dist < tol).sum(axis=1)))]
-    T = np.array([[sc, 0.0, -sc * mx], [0.0, sc, -sc * my], [0.0, 0.0, 1.0]])  # pixels -> normalised
     return T.T @ np.array([[a, b / 2, d / 2], [b / 2, cc, e / 2], [d / 2, e / 2, f]]) @ T
