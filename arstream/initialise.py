@@ -69,6 +69,19 @@ RECALL_WEIGHT = 0.5
 #: 24.7 px from its reference; the right cameras of its reference frames
 #: 0.95-1.0, Premier League frame 01's 0.94)
 MIN_ALONG = 0.7
+#: least line support of the goal and penalty areas' sides alone of any
+#: camera of a still (:func:`register_frame`), where enough of them is in
+#: view: at least half of their points on paint, as
+#: :func:`arstream.support.backs` asks of the markings in view. Through a
+#: long lens the lines across the pitch nearly share one direction, and a
+#: camera twice as far with twice the focal length lays them on the same
+#: paint (a support of 0.79 with three quarters of its markings on paint,
+#: 337 px from the reference: ``israel_league_wide`` frame 375 enlarged 1.33
+#: times) while the areas' sides fall off theirs. On the shared frames under
+#: ``bench/real_graphics.py``'s ten variants the two wrong cameras it turns
+#: away score 0.33 and 0.36; the right ones at least 0.61 (a Premier League
+#: frame at 480 rows, JPEG quality 35, whose sides are faint).
+MIN_SIDES = 0.5
 
 
 def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
@@ -206,7 +219,7 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, refine_family: bool = False, penalty_arcs: bool = False) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -224,7 +237,9 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     view on the grass (:func:`arstream.support.on_grass`) is left out, and
     with ``min_on_lines`` one with a smaller share of its markings on paint
     lying on painted lines rather than along bright steps
-    (:func:`arstream.support.on_lines`) (a still: :func:`register_frame`).
+    (:func:`arstream.support.on_lines`), and with ``min_sides`` one whose
+    goal and penalty areas' sides in view have a smaller line support
+    (:func:`arstream.support.along_support`) (a still: :func:`register_frame`).
     ``refine_family``: the centre circle's family refined before it is
     judged (:func:`circle_view_cameras`' ``refine``, and the penalty arc's,
     :func:`penalty_arc_cameras`). ``penalty_arcs``: the penalty arc's
@@ -247,15 +262,16 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     n_lines = len(cands)
     if penalty_arcs:
         cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
-    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, along_from=n_lines)
+    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides, along_from=n_lines)
     return (best, best_s) if best is not None else (None, None)
 
 
-def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, along_from: int | None = None) -> tuple[Refinement | None, float]:
+def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, min_sides: float | None = None, along_from: int | None = None) -> tuple[Refinement | None, float]:
     """:func:`initialise_from_paint`'s judgement of its hypotheses ``cands``:
-    (the best refinement, its line support), or (None, -1). Those from
-    ``along_from`` on (the penalty arc's) must also keep the areas' sides
-    on their paint (:data:`MIN_ALONG`)."""
+    (the best refinement, its line support), or (None, -1). Each must keep
+    the areas' sides in view on their paint (:func:`arstream.support.along_support`)
+    at ``min_sides``, and those from ``along_from`` on (the penalty arc's)
+    at :data:`MIN_ALONG`."""
     W, H = size
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
@@ -281,7 +297,8 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
             continue  # markings off the grass: a member of a long lens's depth-zoom family too far away
         if min_on_lines is not None and (on_lines(rf.camera, view.image, view.bright, pitch) or 1.0) < min_on_lines:
             continue  # markings along bright steps (the grass's edge, a track, the boards), not painted lines
-        if along_from is not None and j >= along_from and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < MIN_ALONG:
+        need = MIN_ALONG if along_from is not None and j >= along_from else min_sides
+        if need is not None and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < need:
             continue  # slid along the lines across the pitch, the areas' sides off their paint
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
@@ -472,18 +489,19 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
-def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True) -> tuple[Refinement | None, float | None]:
+def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True, min_sides: float | None = MIN_SIDES) -> tuple[Refinement | None, float | None]:
     """The paint initialiser (:func:`initialise_from_paint`) as for a frame
     without temporal help: with the detector's ellipses and lines, the centre
     circle's family refined, and hypotheses off the grass
     (:data:`arstream.support.ON_GRASS`) or along bright steps
     (:data:`arstream.support.ON_LINES`) left out. :func:`register_frame`'s
-    (with the penalty arc's hypotheses), and the tracker's against its own
+    (with the penalty arc's hypotheses, and the areas' sides on their paint:
+    ``min_sides``, :data:`MIN_SIDES`), and the tracker's against its own
     fresh camera (without them: :func:`initialise_from_paint`)."""
-    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, refine_family=True, penalty_arcs=penalty_arcs)
+    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, min_sides=min_sides, refine_family=True, penalty_arcs=penalty_arcs)
 
 
-def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7) -> str | None:
+def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7, min_sides: float | None = None) -> str | None:
     """Why a frame's paint does not back a camera (None: it does), the test a
     camera without temporal help must pass (:func:`register_frame`; the
     tracker's fresh cameras, :class:`arstream.track.Tracker`).
@@ -497,7 +515,9 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
     lens's camera too far away lays the far touchline on the stands, whose
     seats back it); and on painted lines, not along bright steps
     (:data:`arstream.support.ON_LINES`: a track's or the boards' edges back
-    a marking as a line does).
+    a marking as a line does); with ``min_sides`` (a still: :data:`MIN_SIDES`),
+    the goal and penalty areas' sides in view on their paint
+    (:func:`arstream.support.along_support`).
     """
     if support is None or not backs(support, spread, min_support):
         return f"{spread:.0%} of its markings in view on paint"
@@ -505,6 +525,8 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
         return f"{g:.0%} of its markings in view on the grass"
     if (ln := on_lines(camera, view.image, view.bright, pitch)) is not None and ln < ON_LINES:
         return f"{ln:.0%} of its markings on paint along painted lines, not bright edges"
+    if min_sides is not None and (a := along_support(camera, view.bright, pitch)) is not None and a < min_sides:
+        return f"{a:.0%} of the goal and penalty areas' sides in view on paint"
     return None
 
 
@@ -550,7 +572,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         def unbacked(cam, sup, spread) -> str | None:
             """Why the frame's paint does not back ``cam`` (None: it does); judged once a camera."""
             if id(cam) not in verdicts:
-                verdicts[id(cam)] = paint_verdict(cam, sup, spread, view, size, pitch, min_support)
+                verdicts[id(cam)] = paint_verdict(cam, sup, spread, view, size, pitch, min_support, MIN_SIDES)
             return verdicts[id(cam)]
 
         def backed(cam, sup, spread) -> bool:

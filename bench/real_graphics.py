@@ -130,6 +130,53 @@ def small_jpeg(img: np.ndarray) -> np.ndarray:
     return cv2.imdecode(buf, cv2.IMREAD_COLOR)
 
 
+def mirrored(cam: Camera, W: int) -> Camera:
+    """The camera of the frame flipped left to right (pixel ``u`` goes to ``W - 1 - u``):
+    the view of the pitch mirrored in its halfway line's normal (X -> -X), which the
+    pitch's markings map onto themselves. ``F K [R | t] M = K' D [R | t] M`` with
+    ``D = diag(-1, 1, 1)``, so ``R' = D R D`` (still a rotation) and ``t' = D t``."""
+    D = np.diag([-1.0, 1.0, 1.0])
+    K = cam.K.copy()
+    K[0, 2] = W - 1 - K[0, 2]
+    K[0, 1] = -K[0, 1]
+    return Camera(K=K, R=D @ cam.R @ D, t=D @ cam.t, dist=cam.dist)  # radial: symmetric
+
+
+def mirror(img: np.ndarray) -> np.ndarray:
+    """The frame flipped left to right: the same kind of view of the other half or end."""
+    return img[:, ::-1].copy()
+
+
+ZOOM = 1.33
+
+
+def _crop_box(W: int, H: int, zoom: float) -> tuple[int, int, int, int]:
+    x0, y0 = int(round(W * (1 - 1 / zoom) / 2)), int(round(H * (1 - 1 / zoom) / 2))
+    return x0, y0, W - 2 * x0, H - 2 * y0
+
+
+def zoomed(img: np.ndarray) -> np.ndarray:
+    """The centre 1/1.33 of the frame enlarged back to its size (area of a longer lens;
+    markings at the edges leave the view)."""
+    H, W = img.shape[:2]
+    x0, y0, cw, ch = _crop_box(W, H, ZOOM)
+    return cv2.resize(img[y0 : y0 + ch, x0 : x0 + cw], (W, H), interpolation=cv2.INTER_LINEAR)
+
+
+#: variants that move the markings: (the picture, the reference camera of the result
+#: given the frame's reference camera and size (W, H))
+GEOMETRIC = {
+    "mirror": (mirror, lambda cam, W, H: mirrored(cam, W)),
+    "zoom-1.33": (zoomed, lambda cam, W, H: _zoom_camera(cam, W, H)),
+}
+
+
+def _zoom_camera(cam: Camera, W: int, H: int) -> Camera:
+    x0, y0, cw, ch = _crop_box(W, H, ZOOM)
+    shifted = Camera(K=np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+    return scaled(shifted, W / cw, H / ch)
+
+
 VARIANTS = {
     "clean": lambda img: img,
     "lower-third": lower_third,
@@ -139,6 +186,7 @@ VARIANTS = {
     "letterbox": letterbox,
     "pillarbox": pillarbox,
     "480p-jpeg35": small_jpeg,
+    **{k: v[0] for k, v in GEOMETRIC.items()},
 }
 
 
@@ -176,7 +224,7 @@ def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -
             H0, W0 = img.shape[:2]
             im = VARIANTS[v](img)
             H, W = im.shape[:2]
-            truth = scaled(ref, W / W0, H / H0)
+            truth = GEOMETRIC[v][1](ref, W0, H0) if v in GEOMETRIC else scaled(ref, W / W0, H / H0)
             item = name.split(" ")[0]
             est, cam = _register(im, aspect, PitchModel(*PITCHES[item]) if item in PITCHES else None)
             d = float("nan")

@@ -742,3 +742,29 @@ def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
     est = register_image(barred(img, "pillar:0.125"))
     ref, pitch, _ = _reference("israel_league_wide", 275)
     assert est.camera is None or _distance_1280(ref, est.camera, img.shape[1::-1], pitch) <= MAX_DISTANCE_1280, est.info
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+def test_a_longer_lens_view_is_not_drawn_from_a_camera_twice_as_far():
+    # israel_league_wide frame 375's centre enlarged 1.33 times (a longer
+    # lens): the paint initialiser's best camera was twice as far with twice
+    # the focal length, the lines across the pitch on their paint (line
+    # support 0.79, three quarters of its markings on paint) and 337 px from
+    # the reference; the areas' sides off their paint (0.33) turn it away
+    # (MIN_SIDES); the right camera keeps them all on it (1.0)
+    import av
+
+    from arstream.initialise import MIN_SIDES, register_image
+    from arstream.support import along_support, bright_mask
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    from real_graphics import _zoom_camera, zoomed
+
+    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
+        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 375).to_ndarray(format="bgr24")
+    ref, pitch, _ = _reference("israel_league_wide", 375)
+    big = zoomed(img)
+    truth = _zoom_camera(ref, img.shape[1], img.shape[0])
+    assert along_support(truth, bright_mask(cv2.cvtColor(big, cv2.COLOR_BGR2GRAY)), pitch) >= 0.95 > MIN_SIDES
+    est = register_image(big)
+    assert est.camera is None or _distance_1280(truth, est.camera, big.shape[1::-1], pitch) <= MAX_DISTANCE_1280, est.info
