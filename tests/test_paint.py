@@ -768,3 +768,37 @@ def test_a_longer_lens_view_is_not_drawn_from_a_camera_twice_as_far():
     assert along_support(truth, bright_mask(cv2.cvtColor(big, cv2.COLOR_BGR2GRAY)), pitch) >= 0.95 > MIN_SIDES
     est = register_image(big)
     assert est.camera is None or _distance_1280(truth, est.camera, big.shape[1::-1], pitch) <= MAX_DISTANCE_1280, est.info
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
+    # israel_league_wide frame 275 flipped left to right: the same kind of
+    # view of the other end. Its penalty arc is so flat that the closed
+    # form's start is far off at every focal length (7.9 px at best, against
+    # max_rms 2), and unflipped one focal length happened to converge and
+    # seed the others; flipped none did and the family was empty (the frame
+    # lost). The nearest fit polished seeds it.
+    import av
+
+    from arstream.detect import detect
+    from arstream.initialise import paint_view, register_image
+    from arstream.solve import cameras_along_circle
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    from real_graphics import mirror, mirrored
+
+    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
+        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 275).to_ndarray(format="bgr24")
+    ref, pitch, _ = _reference("israel_league_wide", 275)
+    flipped = mirror(img)
+    H, W = flipped.shape[:2]
+    (pa, *_) = paint_view(flipped, detect(flipped)).arcs
+    arc_m = PITCH["penalty_arc_left"]
+    offset = float(PITCH["penalty_area_left_front"].start[0] - arc_m.center[0])
+    args = (pa.arc.conic, pa.front.line, pa.arc.points, pa.front.points, np.array([(W - 1) / 2, (H - 1) / 2]))
+    kw = dict(image_width=W, focals=W * np.geomspace(0.4, 10.0, 18), radius=arc_m.radius, offset=offset)
+    assert cameras_along_circle(*args, **kw, polish=0) == []
+    assert len(cameras_along_circle(*args, **kw)) == 18
+    est = register_image(flipped)
+    assert est.camera is not None, est.info
+    assert _distance_1280(mirrored(ref, W), est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
