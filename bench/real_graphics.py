@@ -156,25 +156,26 @@ def _crop_box(W: int, H: int, zoom: float) -> tuple[int, int, int, int]:
 
 
 def zoomed(img: np.ndarray) -> np.ndarray:
-    """The centre 1/1.33 of the frame enlarged back to its size (area of a longer lens;
-    markings at the edges leave the view)."""
+    """The centre 1/1.33 of the frame enlarged back to its size (the view of a longer
+    lens; markings at the edges leave it)."""
     H, W = img.shape[:2]
     x0, y0, cw, ch = _crop_box(W, H, ZOOM)
     return cv2.resize(img[y0 : y0 + ch, x0 : x0 + cw], (W, H), interpolation=cv2.INTER_LINEAR)
+
+
+def _zoom_camera(cam: Camera, W: int, H: int) -> Camera:
+    """The camera of :func:`zoomed`'s picture of a ``W`` x ``H`` frame seen by ``cam``."""
+    x0, y0, cw, ch = _crop_box(W, H, ZOOM)
+    shifted = Camera(K=np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+    return scaled(shifted, W / cw, H / ch)
 
 
 #: variants that move the markings: (the picture, the reference camera of the result
 #: given the frame's reference camera and size (W, H))
 GEOMETRIC = {
     "mirror": (mirror, lambda cam, W, H: mirrored(cam, W)),
-    "zoom-1.33": (zoomed, lambda cam, W, H: _zoom_camera(cam, W, H)),
+    "zoom-1.33": (zoomed, _zoom_camera),
 }
-
-
-def _zoom_camera(cam: Camera, W: int, H: int) -> Camera:
-    x0, y0, cw, ch = _crop_box(W, H, ZOOM)
-    shifted = Camera(K=np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
-    return scaled(shifted, W / cw, H / ch)
 
 
 VARIANTS = {

@@ -730,15 +730,12 @@ def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
     # the pitch (24.7 px from the reference, line support 0.90) and was drawn;
     # the areas' sides off their paint (0.38 of the markings along the
     # pitch on paint) turn it away
-    import av
-
     from arstream.initialise import register_image
 
     sys.path.insert(0, str(ROOT / "bench"))
     from real_graphics import barred
 
-    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
-        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 275).to_ndarray(format="bgr24")
+    img = _clip_frame(275, "israel_league_wide")
     est = register_image(barred(img, "pillar:0.125"))
     ref, pitch, _ = _reference("israel_league_wide", 275)
     assert est.camera is None or _distance_1280(ref, est.camera, img.shape[1::-1], pitch) <= MAX_DISTANCE_1280, est.info
@@ -752,16 +749,13 @@ def test_a_longer_lens_view_is_not_drawn_from_a_camera_twice_as_far():
     # support 0.79, three quarters of its markings on paint) and 337 px from
     # the reference; the areas' sides off their paint (0.33) turn it away
     # (MIN_SIDES); the right camera keeps them all on it (1.0)
-    import av
-
     from arstream.initialise import MIN_SIDES, register_image
     from arstream.support import along_support, bright_mask
 
     sys.path.insert(0, str(ROOT / "bench"))
     from real_graphics import _zoom_camera, zoomed
 
-    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
-        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 375).to_ndarray(format="bgr24")
+    img = _clip_frame(375, "israel_league_wide")
     ref, pitch, _ = _reference("israel_league_wide", 375)
     big = zoomed(img)
     truth = _zoom_camera(ref, img.shape[1], img.shape[0])
@@ -778,8 +772,6 @@ def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
     # max_rms 2), and unflipped one focal length happened to converge and
     # seed the others; flipped none did and the family was empty (the frame
     # lost). The nearest fit polished seeds it.
-    import av
-
     from arstream.detect import detect
     from arstream.initialise import paint_view, register_image
     from arstream.solve import cameras_along_circle
@@ -787,8 +779,7 @@ def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
     sys.path.insert(0, str(ROOT / "bench"))
     from real_graphics import mirror, mirrored
 
-    with av.open(str(SHARED / "clips" / "israel_league_wide.mp4")) as c:
-        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 275).to_ndarray(format="bgr24")
+    img = _clip_frame(275, "israel_league_wide")
     ref, pitch, _ = _reference("israel_league_wide", 275)
     flipped = mirror(img)
     H, W = flipped.shape[:2]
