@@ -82,6 +82,25 @@ MIN_ALONG = 0.7
 #: away score 0.33 and 0.36; the right ones at least 0.61 (a Premier League
 #: frame at 480 rows, JPEG quality 35, whose sides are faint).
 MIN_SIDES = 0.5
+#: splits of the paint's lines into the pitch's two directions whose line
+#: pairs the paint initialiser tries (:func:`arstream.solve_lines.cameras_from_line_pairs`)
+SPLITS = 2
+#: further splits a still tries when the first ones give no camera with a
+#: line support of at least :data:`MORE_SPLITS_BELOW` (:func:`still_paint_camera`).
+#: Through a long lens looking along the pitch the lines across it are nearly
+#: parallel in the picture, and the edges of a running track or of the
+#: boards, and a flat penalty arc's pieces, join their family: the two splits
+#: with the most line length then pair the wrong lines. Six more found
+#: ``israel_league_wide`` frames 175 and 400 (goal, goal area and penalty
+#: area through a lens of f ~ 4300 px), lost before; they cost a still about
+#: 0.8 s more where they are tried, and a tracker never tries them. Their
+#: camera must have a line support of :data:`PAINT_CHECK`: the wider search
+#: runs where the frame gave nothing, and there a chance alignment passes
+#: the still's tests (``world_cup_2006`` under a bar over the bottom third,
+#: ``bench/real_graphics.py``: 0.82, 888 px off; the right cameras it
+#: found 0.93-1.0 under the benchmark's ten variants).
+MORE_SPLITS = 6
+MORE_SPLITS_BELOW = 0.7
 
 
 def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
@@ -219,7 +238,7 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -250,19 +269,32 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     one, started the centre off (``israel_league_wide`` at 854 x 480 crf 12
     from frame 120: 4.6 -> 22.5 % of the frames more than 5 px from the
     full-size run's; the same run's figures with them only where nothing
-    else is kept). Returns (refinement, its support), or (None, None) when
+    else is kept). ``more_splits``: when no hypothesis gives a line support
+    of :data:`MORE_SPLITS_BELOW`, the lines' next splits into the two
+    directions (:data:`MORE_SPLITS`, a still) are tried too, and their best
+    kept when its line support is at least :data:`PAINT_CHECK` and its
+    :func:`paint_score` is higher. Returns (refinement, its support), or (None, None) when
     no hypothesis was found.
     """
     W, H = size
     r = max(2, int(round(2.5 * W / 1280)))
     near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     found = view.lines[:10]
-    hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep) if len(found) >= 4 else None
+    hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep, splits=SPLITS) if len(found) >= 4 else None
     cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
     n_lines = len(cands)
     if penalty_arcs:
         cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
     best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides, along_from=n_lines)
+    if more_splits > 0 and hy is not None and best_s < MORE_SPLITS_BELOW:
+        # (nothing backed from the first splits: a long lens's markings across
+        # the pitch are nearly parallel in the picture, and the boards' or a
+        # track's edges and a flat penalty arc's pieces join their family)
+        hx = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep, splits=SPLITS + more_splits, first_split=SPLITS)
+        bx, sx = _best_from_paint(hx.cameras, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides)
+        model = ModelSamples.from_pitch(pitch, 0.5)
+        if bx is not None and sx >= PAINT_CHECK and (best is None or paint_score(bx.camera, sx, view, size, model) > paint_score(best.camera, best_s, view, size, model)):
+            best, best_s = bx, sx
     return (best, best_s) if best is not None else (None, None)
 
 
@@ -489,16 +521,18 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
-def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True, min_sides: float | None = MIN_SIDES) -> tuple[Refinement | None, float | None]:
+def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True, min_sides: float | None = MIN_SIDES, more_splits: int = MORE_SPLITS) -> tuple[Refinement | None, float | None]:
     """The paint initialiser (:func:`initialise_from_paint`) as for a frame
     without temporal help: with the detector's ellipses and lines, the centre
     circle's family refined, and hypotheses off the grass
     (:data:`arstream.support.ON_GRASS`) or along bright steps
     (:data:`arstream.support.ON_LINES`) left out. :func:`register_frame`'s
     (with the penalty arc's hypotheses, and the areas' sides on their paint:
-    ``min_sides``, :data:`MIN_SIDES`), and the tracker's against its own
-    fresh camera (without them: :func:`initialise_from_paint`)."""
-    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, min_sides=min_sides, refine_family=True, penalty_arcs=penalty_arcs)
+    ``min_sides``, :data:`MIN_SIDES`; and when the first splits of its lines
+    give nothing backed, ``more_splits``, :data:`MORE_SPLITS`), and the
+    tracker's against its own fresh camera (without them:
+    :func:`initialise_from_paint`)."""
+    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, min_sides=min_sides, refine_family=True, penalty_arcs=penalty_arcs, more_splits=more_splits)
 
 
 def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7, min_sides: float | None = None) -> str | None:

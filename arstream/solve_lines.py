@@ -334,6 +334,7 @@ def cameras_from_line_pairs(
     guided: int = 150,
     prescreen: int = 600,
     splits: int = 2,
+    first_split: int = 0,
 ) -> LineHypotheses:
     """Candidate cameras from straight lines, scored against the frame's paint.
 
@@ -367,6 +368,11 @@ def cameras_from_line_pairs(
     max_family : most lines of each direction used (the first ones given)
     tol_deg : angle within which a line points at its family's vanishing point
     keep : most cameras returned
+    splits : most splits of the lines into the two directions tried
+        (:func:`_line_families`, the most line length first)
+    first_split : the splits before this one are left out (already tried:
+        a caller that found no camera from the first splits asks for the
+        next ones)
 
     Returns
     -------
@@ -571,7 +577,7 @@ def cameras_from_line_pairs(
     # each split both ways round: the flatter family is along the touchlines
     # while the camera looks within 45 degrees of straight across the pitch; a
     # penalty area seen from near the halfway line can be farther round
-    out = [one(*ab) for a, b in _line_families(L, E, tol_deg, principal_point, W, splits=splits) for ab in ((a, b), (b, a))]
+    out = [one(*ab) for a, b in _line_families(L, E, tol_deg, principal_point, W, splits=splits)[first_split:] for ab in ((a, b), (b, a))]
     if not out:
         return empty
     # the first split's ``keep`` best (each way round) and each further split's

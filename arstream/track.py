@@ -1090,7 +1090,7 @@ class Tracker:
         if backed and sup >= PAINT_CHECK:
             return None
         self._paint_at = index
-        rp, sp = still_paint_camera(view, self.size, principal_point=self.pp, pitch=self.pitch, detections=det, penalty_arcs=False, min_sides=None)
+        rp, sp = still_paint_camera(view, self.size, principal_point=self.pp, pitch=self.pitch, detections=det, penalty_arcs=False, min_sides=None, more_splits=0)
         if rp is None or sp < self.cfg.paint_accept:
             return None
         sp2, spread_p = self._support(index, rp.camera, view.image)

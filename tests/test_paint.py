@@ -793,3 +793,27 @@ def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
     est = register_image(flipped)
     assert est.camera is not None, est.info
     assert _distance_1280(mirrored(ref, W), est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+@pytest.mark.parametrize("frame", [175, 400])
+def test_a_long_lens_penalty_view_tries_further_splits_of_its_lines(frame):
+    # israel_league_wide frames 175 and 400 as stills: a lens of f ~ 4300 px
+    # looking along the pitch at the goal. The lines across the pitch (goal
+    # line, goal area, penalty area) are nearly parallel in the picture and a
+    # running track's edges and the flat penalty arc's pieces join them, so
+    # the two splits of the lines with the most line length pair the wrong
+    # lines and nothing is found (both lost before); the further splits
+    # (MORE_SPLITS) hold the right one
+    from arstream.detect import detect
+    from arstream.initialise import MORE_SPLITS_BELOW, paint_view, register_image, still_paint_camera
+
+    img = _clip_frame(frame, "israel_league_wide")
+    ref, pitch, _ = _reference("israel_league_wide", frame)
+    H, W = img.shape[:2]
+    det = detect(img)
+    rp, sp = still_paint_camera(paint_view(img, det), (W, H), principal_point=np.array([(W - 1) / 2, (H - 1) / 2]), pitch=pitch, detections=det, more_splits=0)
+    assert rp is None or sp < MORE_SPLITS_BELOW
+    est = register_image(img)
+    assert est.camera is not None, est.info
+    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
