@@ -21,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.detect.paint import paint_arcs, paint_lines, paint_mask
+from arstream.detect.paint import PAINT_CONTRAST, paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
@@ -101,6 +101,19 @@ SPLITS = 2
 #: found 0.93-1.0 under the benchmark's ten variants).
 MORE_SPLITS = 6
 MORE_SPLITS_BELOW = 0.7
+#: the paint mask's contrast (levels, :func:`arstream.detect.paint.paint_mask`)
+#: of a still's second look when its paint at the usual contrast
+#: (:data:`arstream.detect.paint.PAINT_CONTRAST`, 12) gives no backed camera
+#: (:func:`register_frame`). The far, thin lines of a long lens's view can be
+#: fainter than that, and the lines a split needs go missing
+#: (``israel_league_wide`` frame 225: only the penalty area's side is found
+#: along the pitch; at 8 levels the goal area's sides too, 4.0 px from the
+#: reference). Its camera is held to :data:`PAINT_CHECK`, as the further
+#: splits' are: a second look runs where the frame gave nothing, and there it
+#: found cameras 186 and 248 px off at a line support of 0.84 and 0.78 under
+#: ``bench/real_graphics.py``'s variants (the right ones 0.97-1.0; on a soft
+#: picture, which it would also help, 0.80-0.90).
+FAINT_CONTRAST = 8.0
 
 
 def initialise_camera(detections, index: LineIndex, size, model: ModelSamples, *, principal_point, pitch: PitchModel, centre=None, estimate_k1: bool = False, prior: Camera | None = None) -> Refinement | None:
@@ -224,18 +237,20 @@ class PaintView:
         return self._arcs
 
 
-def paint_view(image: np.ndarray, detections, *, reach: int = 2) -> PaintView:
-    """The paint mask and its pixels, the white-paint support mask (with
-    ``reach``, :func:`arstream.support.white_mask`) and the grass region of
-    one BGR frame (the pitch region from ``detections``)."""
+def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float = PAINT_CONTRAST, bright: np.ndarray | None = None) -> PaintView:
+    """The paint mask (``contrast``: :func:`arstream.detect.paint.paint_mask`)
+    and its pixels, the white-paint support mask (with ``reach``,
+    :func:`arstream.support.white_mask`; or ``bright``, the frame's, made
+    before) and the grass region of one BGR frame (the pitch region from
+    ``detections``)."""
     H, W = image.shape[:2]
     grass = getattr(detections, "grass_mask", None)
     region = cv2.dilate(grass, np.ones((3, 3), np.uint8)) if grass is not None else None
-    mask = paint_mask(image, region)
+    mask = paint_mask(image, region, contrast=contrast)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
     small = getattr(detections, "grass_small", None) if detections is not None else None
-    return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach), None if small is None else grass_region(small))
+    return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach) if bright is None else bright, None if small is None else grass_region(small))
 
 
 def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0) -> tuple[Refinement | None, float | None]:
@@ -576,7 +591,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     below :data:`PAINT_CHECK`, the paint initialiser
     (:func:`initialise_from_paint`, for real broadcast frames) is tried, and
     of two backed cameras the one with the higher :func:`paint_score` (by
-    more than 0.02) kept. With the frame, the detector's camera is
+    more than 0.02) kept; when neither is backed, the paint is looked at
+    again at :data:`FAINT_CONTRAST` (its camera held to :data:`PAINT_CHECK`).
+    With the frame, the detector's camera is
     judged by its paint even below INIT_ACCEPT (the ridge detector's recall
     on a real frame). The support is in ``info["support"]``.
     """
@@ -624,6 +641,16 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 # few markings on one line or on the boards can have the higher
                 # support while it leaves most of the frame's paint unexplained)
                 if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or paint_score(rp.camera, sp or 0.0, view, size, model) > paint_score(r.camera, sup or 0.0, view, size, model) + 0.02:
+                    r, sup, spread = rp, sp, spread_p
+        if r is None or not backed(r.camera, sup, spread):
+            # (nothing backed from the paint at PAINT_CONTRAST: far, thin lines can
+            # be fainter than that; the paint again at FAINT_CONTRAST, its camera
+            # judged on the same white-paint mask and held to PAINT_CHECK)
+            faint = paint_view(image, detections, contrast=FAINT_CONTRAST, bright=view.bright)
+            rp, _ = still_paint_camera(faint, size, principal_point=pp, pitch=pitch, detections=detections)
+            if rp is not None:
+                sp, spread_p = backed_support(rp.camera, view.bright, pitch)
+                if sp is not None and sp >= PAINT_CHECK and backed(rp.camera, sp, spread_p):
                     r, sup, spread = rp, sp, spread_p
         if r is not None and (why := unbacked(r.camera, sup, spread)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")

@@ -7,8 +7,12 @@ shared clips) is registered as a still, clean and with graphics drawn over it
 the way broadcasts do: a lower-third caption, a score box with a channel
 logo, an opaque bar over the bottom quarter or third (a ticker, a replay
 wipe), letterbox and pillarbox bars, and the frame scaled to 854 x 480 and
-saved as a strong JPEG. The graphics hide markings but do not move them, so
-the reference camera is still the truth (scaled with the frame).
+saved as a strong JPEG; and two looks of the picture itself, an evening
+match (darker, flatter) and a soft picture (a 1.2 px blur). These hide or
+fade markings but do not move them, so the reference camera is still the
+truth (scaled with the frame). Two variants move the markings, with the
+reference camera moved with the picture: the frame flipped left to right
+and its centre enlarged 1.33 times (``GEOMETRIC``).
 
 For each variant the table counts the frames registered, those within 5 px
 of the reference, and those **beyond 20 px: wrong cameras that would be
@@ -130,6 +134,21 @@ def small_jpeg(img: np.ndarray) -> np.ndarray:
     return cv2.imdecode(buf, cv2.IMREAD_COLOR)
 
 
+def dim(img: np.ndarray) -> np.ndarray:
+    """An evening match under floodlights: the picture darker and flatter
+    (``255 * 0.7 * (x / 255) ** 1.3 + 8``), a painted line's contrast about
+    halved in the shadows."""
+    x = img.astype(np.float32) / 255.0
+    return np.clip(255.0 * 0.7 * x**1.3 + 8.0, 0, 255).astype(np.uint8)
+
+
+def soft(img: np.ndarray) -> np.ndarray:
+    """A soft picture (an upconverted or slightly defocused broadcast): a
+    Gaussian blur of 1.2 px, which leaves a far line one or two pixels wide
+    fainter than the paint's contrast."""
+    return cv2.GaussianBlur(img, (0, 0), 1.2)
+
+
 def mirrored(cam: Camera, W: int) -> Camera:
     """The camera of the frame flipped left to right (pixel ``u`` goes to ``W - 1 - u``):
     the view of the pitch mirrored in its halfway line's normal (X -> -X), which the
@@ -187,6 +206,8 @@ VARIANTS = {
     "letterbox": letterbox,
     "pillarbox": pillarbox,
     "480p-jpeg35": small_jpeg,
+    "dim": dim,
+    "soft-1.2": soft,
     **{k: v[0] for k, v in GEOMETRIC.items()},
 }
 

@@ -817,3 +817,27 @@ def test_a_long_lens_penalty_view_tries_further_splits_of_its_lines(frame):
     est = register_image(img)
     assert est.camera is not None, est.info
     assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+def test_a_still_whose_paint_gives_nothing_looks_again_at_fainter_paint():
+    # israel_league_wide frame 225 as a still: at the paint mask's usual
+    # contrast (12 levels) only the penalty area's side is found along the
+    # pitch, beside the lines across it, and no split of the lines (the
+    # further ones too) gives a backed camera; at FAINT_CONTRAST the goal
+    # area's sides are found as well
+    from arstream.detect import detect
+    from arstream.initialise import PAINT_CHECK, paint_verdict, paint_view, register_image, still_paint_camera
+    from arstream.support import backed_support
+
+    img = _clip_frame(225, "israel_league_wide")
+    ref, pitch, _ = _reference("israel_league_wide", 225)
+    H, W = img.shape[:2]
+    det = detect(img)
+    view = paint_view(img, det)
+    rp, _ = still_paint_camera(view, (W, H), principal_point=np.array([(W - 1) / 2, (H - 1) / 2]), pitch=pitch, detections=det)
+    assert rp is None or paint_verdict(rp.camera, *backed_support(rp.camera, view.bright, pitch), view, (W, H), pitch) is not None
+    est = register_image(img)
+    assert est.camera is not None, est.info
+    assert est.info["support"] >= PAINT_CHECK
+    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
