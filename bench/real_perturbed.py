@@ -13,7 +13,7 @@ them, beside the ground-truth-free figures of ``arstream eval --video``.
 
 Usage::
 
-    python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF ...]
+    python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF[:LOOK] ...]
                                    [--frames N] [--pitch NAME=LxW ...] [--keep DIR]
 
 Distances are means over the markings in the full-size camera's view, in
@@ -46,10 +46,13 @@ from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
 from encoder_reproducibility import capabilities  # noqa: E402
 from real_footage import SHARED, _fmt, distance_1280, pitch_args  # noqa: E402
+from real_graphics import dim, soft  # noqa: E402
 
 #: the frame rates MPEG-2 can code
 MPEG2_RATES = (Fraction(24000, 1001), Fraction(24), Fraction(25), Fraction(30000, 1001), Fraction(30), Fraction(50), Fraction(60000, 1001), Fraction(60))
 VARIANTS = ["1280x720x28", "1024x576x20", "854x480x12", "854x480x20", "848x478x26"]
+#: looks of the picture a variant can add (``WxHxCRF:LOOK``): an evening match, a soft picture
+LOOKS = {"dim": dim, "soft-1.2": soft}
 
 
 def _area_weights(n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, int]:
@@ -92,12 +95,15 @@ def x264_options(crf: int) -> dict:
     return {"crf": str(crf), "preset": "fast", "x264-params": f"asm={asm}"}
 
 
-def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264") -> Path:
+def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264", look=None) -> Path:
     """``frames`` frames of ``src`` (all with None) from frame ``start`` on,
     scaled to ``size`` (area averaging, :func:`area_scale`) and encoded with
     ``codec`` at ``quality`` (libx264's crf, or with ``"mpeg2video"``, the
     codec of SD broadcasts, its bit rate in kbit/s): another broadcast of
-    the same match. Returns ``dst``.
+    the same match. ``look``: a function of a BGR frame applied to each
+    decoded frame first (``real_graphics.dim``, ``real_graphics.soft``: an
+    evening match, a soft picture); its colour conversions are FFmpeg's, so
+    such a copy is not the same bytes on every processor. Returns ``dst``.
 
     The same bytes on every run: the scaling is exact integer arithmetic on
     the decoded planes, the same on every processor (FFmpeg's swscale,
@@ -141,6 +147,8 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
                 break
             if frame.format.name not in ("yuv420p", "yuvj420p"):
                 raise ValueError(f"{src}: frames are {frame.format.name}, not 4:2:0 8-bit")
+            if look is not None:
+                frame = av.VideoFrame.from_ndarray(look(frame.to_ndarray(format="bgr24")), format="bgr24").reformat(format="yuv420p")
             planes = i420_planes(frame.to_ndarray(), frame.width, frame.height)
             scaled = [area_scale(p, (w, h) if i == 0 else (w // 2, h // 2)) for i, p in enumerate(planes)]
             g = av.VideoFrame.from_ndarray(np.concatenate([q.ravel() for q in scaled]).reshape(-1, w), format="yuv420p")
@@ -185,26 +193,27 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dic
             truth = _cameras(records)
             rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, records, pitch=used)))
             for v in variants:
-                w, h, crf = (int(x) for x in v.split("x"))
+                shape, _, look = v.partition(":")
+                w, h, crf = (int(x) for x in shape.split("x"))
                 for start in starts:
                     if start >= len(truth) - 25:
                         continue
-                    stem = f"{name}_{w}x{h}_crf{crf}_from{start}"
-                    clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start)
+                    stem = f"{name}_{w}x{h}_crf{crf}{'_' + look if look else ''}_from{start}"
+                    clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start, look=LOOKS[look] if look else None)
                     out = work / f"{stem}.jsonl"
                     t0 = time.perf_counter()
                     process(clip, cameras_out=out, handle_signals=False, pitch=(used.length, used.width))
                     dt = time.perf_counter() - t0
                     recs = [json.loads(x) for x in out.read_text().splitlines()]
                     d = distances(truth[start:], _cameras(recs), (w, h), used)
-                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}", start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=used), dist=d[np.isfinite(d)], frames=len(d)))
+                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}" + (f", {look}" if look else ""), start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=used), dist=d[np.isfinite(d)], frames=len(d)))
     return rows
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["israel_league_wide"])
-    ap.add_argument("--variants", nargs="+", default=VARIANTS, help="WxHxCRF")
+    ap.add_argument("--variants", nargs="+", default=VARIANTS, help="WxHxCRF, or WxHxCRF:LOOK with a look of the picture (dim, soft-1.2)")
     ap.add_argument("--starts", nargs="+", type=int, default=[0, 60, 120], help="each variant from these frames of the clip on (other starting conditions)")
     ap.add_argument("--frames", type=int, default=None, help="at most N frames from each start")
     ap.add_argument("--pitch", action="append", default=[], help="NAME=LxW: the pitch size of a clip (given to every run of it)")
