@@ -100,6 +100,7 @@ SPLITS = 2
 #: ``bench/real_graphics.py``: 0.82, 888 px off; the right cameras it
 #: found 0.93-1.0 under the benchmark's ten variants).
 MORE_SPLITS = 6
+#: (the line support a still's camera must have: :func:`register_frame`'s ``min_support``)
 MORE_SPLITS_BELOW = 0.7
 #: the paint mask's contrast (levels, :func:`arstream.detect.paint.paint_mask`)
 #: of a still's second look when its paint at the usual contrast
@@ -295,7 +296,8 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     r = max(2, int(round(2.5 * W / 1280)))
     near = cv2.dilate(view.mask, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     found = view.lines[:10]
-    hy = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep, splits=SPLITS) if len(found) >= 4 else None
+    seg_lines, seg_ends = [dl.line for dl in found], [dl.endpoints for dl in found]
+    hy = cameras_from_line_pairs(seg_lines, seg_ends, size, principal_point, near, pitch, keep=keep, splits=SPLITS) if len(found) >= 4 else None
     cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
     n_lines = len(cands)
     if penalty_arcs:
@@ -305,7 +307,7 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
         # (nothing backed from the first splits: a long lens's markings across
         # the pitch are nearly parallel in the picture, and the boards' or a
         # track's edges and a flat penalty arc's pieces join their family)
-        hx = cameras_from_line_pairs([dl.line for dl in found], [dl.endpoints for dl in found], size, principal_point, near, pitch, keep=keep, splits=SPLITS + more_splits, first_split=SPLITS)
+        hx = cameras_from_line_pairs(seg_lines, seg_ends, size, principal_point, near, pitch, keep=keep, splits=SPLITS + more_splits, first_split=SPLITS)
         bx, sx = _best_from_paint(hx.cameras, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides)
         model = ModelSamples.from_pitch(pitch, 0.5)
         if bx is not None and sx >= PAINT_CHECK and (best is None or paint_score(bx.camera, sx, view, size, model) > paint_score(best.camera, best_s, view, size, model)):

@@ -795,6 +795,20 @@ def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
     assert _distance_1280(mirrored(ref, W), est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
 
 
+def _paint_alone(img: np.ndarray, pitch, **kw):
+    """(paint view, camera, support) of the still paint initialiser alone on a
+    BGR frame (the principal point at its centre), ``kw`` to
+    :func:`arstream.initialise.still_paint_camera`."""
+    from arstream.detect import detect
+    from arstream.initialise import paint_view, still_paint_camera
+
+    H, W = img.shape[:2]
+    det = detect(img)
+    view = paint_view(img, det)
+    rp, sp = still_paint_camera(view, (W, H), principal_point=np.array([(W - 1) / 2, (H - 1) / 2]), pitch=pitch, detections=det, **kw)
+    return view, rp, sp
+
+
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 @pytest.mark.parametrize("frame", [175, 400])
 def test_a_long_lens_penalty_view_tries_further_splits_of_its_lines(frame):
@@ -805,18 +819,15 @@ def test_a_long_lens_penalty_view_tries_further_splits_of_its_lines(frame):
     # the two splits of the lines with the most line length pair the wrong
     # lines and nothing is found (both lost before); the further splits
     # (MORE_SPLITS) hold the right one
-    from arstream.detect import detect
-    from arstream.initialise import MORE_SPLITS_BELOW, paint_view, register_image, still_paint_camera
+    from arstream.initialise import MORE_SPLITS_BELOW, register_image
 
     img = _clip_frame(frame, "israel_league_wide")
     ref, pitch, _ = _reference("israel_league_wide", frame)
-    H, W = img.shape[:2]
-    det = detect(img)
-    rp, sp = still_paint_camera(paint_view(img, det), (W, H), principal_point=np.array([(W - 1) / 2, (H - 1) / 2]), pitch=pitch, detections=det, more_splits=0)
+    _, rp, sp = _paint_alone(img, pitch, more_splits=0)
     assert rp is None or sp < MORE_SPLITS_BELOW
     est = register_image(img)
     assert est.camera is not None, est.info
-    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+    assert _distance_1280(ref, est.camera, img.shape[1::-1], pitch) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -826,18 +837,15 @@ def test_a_still_whose_paint_gives_nothing_looks_again_at_fainter_paint():
     # pitch, beside the lines across it, and no split of the lines (the
     # further ones too) gives a backed camera; at FAINT_CONTRAST the goal
     # area's sides are found as well
-    from arstream.detect import detect
-    from arstream.initialise import PAINT_CHECK, paint_verdict, paint_view, register_image, still_paint_camera
+    from arstream.initialise import PAINT_CHECK, paint_verdict, register_image
     from arstream.support import backed_support
 
     img = _clip_frame(225, "israel_league_wide")
     ref, pitch, _ = _reference("israel_league_wide", 225)
-    H, W = img.shape[:2]
-    det = detect(img)
-    view = paint_view(img, det)
-    rp, _ = still_paint_camera(view, (W, H), principal_point=np.array([(W - 1) / 2, (H - 1) / 2]), pitch=pitch, detections=det)
-    assert rp is None or paint_verdict(rp.camera, *backed_support(rp.camera, view.bright, pitch), view, (W, H), pitch) is not None
+    size = img.shape[1::-1]
+    view, rp, _ = _paint_alone(img, pitch)
+    assert rp is None or paint_verdict(rp.camera, *backed_support(rp.camera, view.bright, pitch), view, size, pitch) is not None
     est = register_image(img)
     assert est.camera is not None, est.info
     assert est.info["support"] >= PAINT_CHECK
-    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+    assert _distance_1280(ref, est.camera, size, pitch) <= MAX_DISTANCE_1280
