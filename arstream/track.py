@@ -259,6 +259,10 @@ class Tracker:
         self.cfg = config or TrackerConfig()
         self.model = ModelSamples.from_pitch(self.pitch, 0.5)
         self.centre: np.ndarray | None = None
+        # the tripod centre given up with a camera its paint stopped backing:
+        # a fresh camera is still checked against it (the same tripod?) until
+        # a centre is frozen again (see reset)
+        self._given_up: np.ndarray | None = None
         self._cut_seen = False  # a shot cut since the tripod centre was set
         self._other: tuple[int, np.ndarray] | None = None  # (frame, centre) of the last fresh camera far from it
         self._centres: list[tuple[float, np.ndarray]] = []  # (largest sd, centre) of free-pose measurements
@@ -384,8 +388,17 @@ class Tracker:
         pitch plane). Like :meth:`image_motion`, a hint for the detector."""
         return self._width_at.get(frame)
 
-    def reset(self, *, keep_centre: bool = True) -> None:
-        """Forget the temporal state (after a cut). The tripod centre is kept unless asked."""
+    def reset(self, *, keep_centre: bool = True, wrong: bool = False) -> None:
+        """Forget the temporal state (after a cut). The tripod centre is kept unless asked.
+
+        ``wrong``: the filter's camera lost its paint's backing (three frames
+        in a row, in a whip pan or after a wrong camera). Its centre is given
+        up, but a fresh camera far from it is still checked against it as
+        against a frozen centre (refined about it, or believed only when a
+        second one agrees: :meth:`_another_camera`) until a centre is frozen
+        again: the main camera has not left its tripod, and a paint camera
+        right after a whip pan can lay a penalty area on its paint from a
+        centre tens of metres away."""
         self._kf = None
         self._coast = 0
         self._conf_ref = 1.0
@@ -393,6 +406,7 @@ class Tracker:
         self._last_z = None
         self._paint_noise = self.cfg.paint_noise
         if not keep_centre:
+            self._given_up = (self.centre if self.centre is not None else self._given_up) if wrong else None
             self.centre = None
             self._centres.clear()
             self._centre_views.clear()
@@ -576,10 +590,11 @@ class Tracker:
                 meas = r
                 source = "init"
                 self.stats["inits"] += 1
-                if self.centre is not None and np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
+                tripod = self._tripod()
+                if tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break:
                     # is it the same tripod? try the frozen centre
                     try:
-                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal))
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=tripod, estimate_k1=self._want_k1(r.camera.focal))
                     except ValueError:
                         rc = None
                     if rc is not None and rc.confidence >= r.confidence - 0.05:
@@ -608,18 +623,20 @@ class Tracker:
                 self.stats["paint_inits"] += 1
                 self._paint = True
                 self._kf = None
-                if self.centre is not None:
+                tripod = self._tripod()
+                if self.centre is not None or (tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break):
                     # the same tripod? the frozen centre, unless the frame's
                     # paint backs it clearly less (the paint's initialiser
-                    # knows no centre)
+                    # knows no centre); a centre given up only where the
+                    # camera is far from it
                     try:
-                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=self.centre, estimate_k1=self._want_k1(r.camera.focal), radii=(10.0, 5.0, 3.0))
+                        rc = refine_camera(r.camera, lidx, self.size, self.model, center=tripod, estimate_k1=self._want_k1(r.camera.focal), radii=(10.0, 5.0, 3.0))
                     except ValueError:
                         rc = None
                     sc = None if rc is None else self._support(index, rc.camera, image)[0]
                     if sc is not None and sc >= min(sup, self.cfg.paint_accept) - 0.05:
                         meas = rc
-                    elif np.linalg.norm(r.camera.center - self.centre) > self.cfg.centre_break:
+                    elif np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break:
                         if self._another_camera(index, r.camera):
                             self.reset(keep_centre=False)
                         else:
@@ -938,7 +955,7 @@ class Tracker:
                 self.stats["unsupported"] += 1
                 self._unsupported += 1
                 if self._unsupported >= 3:  # a wrong camera the filter keeps: start afresh
-                    self.reset(keep_centre=False)
+                    self.reset(keep_centre=False, wrong=True)
                 return _unsupported(index, pts, sup, spread)
         info["centre"] = np.array(centre, dtype=np.float64)
         if cam is not None:
@@ -1007,6 +1024,10 @@ class Tracker:
         its paint backs it, as a measured camera would be."""
         cam = est.camera
         frame = est.frame
+        # (about the frozen centre, else the found camera's own: the main camera
+        # does not leave its tripod between frames, and free poses of views the
+        # paint backs poorly slide along their lines of sight)
+        centre = self.centre if self.centre is not None else cam.center
         for j in range(len(self._window) - 1, -1, -1):
             prev = self._window[j]
             img = prev.info.get("image")
@@ -1014,14 +1035,13 @@ class Tracker:
                 break
             view = paint_view(img, None, reach=self.support_reach)
             try:
-                r = refine_camera(cam, view.index, self.size, self.model, center=self.centre, radii=(10.0, 5.0, 3.0))
+                r = refine_camera(cam, view.index, self.size, self.model, center=centre, radii=(10.0, 5.0, 3.0))
             except ValueError:
                 break
             sup, spread = backed_support(r.camera, view.bright, self.pitch, spacing=0.5)
             if not backs(sup, spread, self.cfg.min_support) or sup is None or not plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
                 break
             self._keep_mask(prev.frame, view.bright)
-            centre = self.centre if self.centre is not None else r.camera.center
             self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64)})
             self.stats["lost"] -= 1
             self.stats["ok"] += 1
@@ -1101,6 +1121,12 @@ class Tracker:
             return rp, sp
         return None
 
+    def _tripod(self) -> np.ndarray | None:
+        """The centre a fresh camera is checked against (the same tripod?): the
+        frozen one, else the one given up with a camera its paint stopped
+        backing (:meth:`reset`'s ``wrong``), else None."""
+        return self.centre if self.centre is not None else self._given_up
+
     def _another_camera(self, index: int, cam: Camera) -> bool:
         """Is a fresh camera far from the tripod centre, which the frozen centre
         does not fit, another camera (True: give the centre up for it)?
@@ -1125,6 +1151,7 @@ class Tracker:
         """Update the tripod centre and the lens distortion from a confident measurement."""
         if self.centre is None and self._add_centre(r) and len(self._centres) >= self.cfg.centre_frames:
             self.centre = self._best_centre()
+            self._given_up = None
             self._cut_seen = False
             if self._paint and self._kf is not None:
                 # real frames: keep the filter's rates (a pan goes on); its angles

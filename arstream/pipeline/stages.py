@@ -322,6 +322,16 @@ class MatteStage(Stage):
 #: for :attr:`TrackStage.supports` (about 4 ms at 720p: 0.8 ms a frame)
 JUDGE_EVERY = 5
 
+#: a camera the tracker judged (at the analysis size, on white paint) at a
+#: line support below this is judged again by :class:`TrackStage` on the
+#: whole frame, as ``arstream eval`` does (docs/evaluate.md) ...
+RECHECK_BELOW = 0.75
+#: ... and not drawn (reported "lost") below this line support there: issue
+#: 29's "no frame drawn with line support < 0.5". The analysis size's coarser
+#: mask backs a camera a few pixels off more than the frame's own (a
+#: re-encoded copy's frame 101: 0.62 there, 0.33 on the frame)
+MIN_DRAWN_SUPPORT = 0.5
+
 
 class TrackStage(Stage):
     """Camera of every frame: :class:`arstream.track.Tracker`.
@@ -348,6 +358,9 @@ class TrackStage(Stage):
         #: pitch's size fits the clip (the tracker's own test works at the
         #: analysis size and on white paint, and tells sizes apart less well)
         self.supports: list = []
+        #: frames whose camera the whole frame's line support put below
+        #: :data:`MIN_DRAWN_SUPPORT`, reported "lost"
+        self.undrawn = 0
         self.available = tracker is not None
         self.lag = int(lag)
         self.max_held = self.lag + 8
@@ -383,9 +396,17 @@ class TrackStage(Stage):
                 raise ArstreamError(f"the tracker returned an estimate for frame {est.frame}, which is not waiting; this is a bug in arstream.track")
             if est.camera is not None and not self.analysis.full:
                 est = CameraEstimate(est.frame, est.pts, est.status, self.analysis.camera(est.camera), est.confidence, est.info)
+            mask = None
+            judged = est.info.get("support") if est.camera is not None else None
+            if est.camera is not None and (judged is None or judged < RECHECK_BELOW):
+                mask = frame_mask(it.frame)
+                share = line_support(est.camera, mask, marking_points(self.tracker.pitch)).share
+                if share is not None and share < MIN_DRAWN_SUPPORT:
+                    self.undrawn += 1
+                    est = CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {share:.2f} on the whole frame)")
             it.estimate = est
             if est.frame % JUDGE_EVERY == 0:
-                self.supports.append(None if est.camera is None else line_support(est.camera, frame_mask(it.frame), marking_points(self.tracker.pitch)).share)
+                self.supports.append(None if est.camera is None else line_support(est.camera, frame_mask(it.frame) if mask is None else mask, marking_points(self.tracker.pitch)).share)
             out.append(it)
         return out
 
