@@ -67,6 +67,32 @@ def test_cameras_along_circle_give_the_camera_at_its_focal_length():
     assert got.focal == cam.focal
 
 
+@pytest.mark.parametrize("offset", [0.0, 3.0])
+def test_the_circle_view_fits_jacobian_is_the_residuals_derivative(offset):
+    # the exact Jacobian the fit is given, against central differences of its
+    # residuals, 2 mrad and 2 cm (twice) about the low far camera's rotation
+    # and centre; with an offset, the line X = 3 m stands for the halfway
+    # line (the pixels then lie 3 m off it: any residuals will do). (At the
+    # rotation vector 0 itself, OpenCV's Rodrigues Jacobian is good to 1e-6.)
+    from scipy.optimize._numdiff import approx_derivative
+
+    from arstream.solve import _CircleViewFit
+
+    cam = _low_far_camera()
+    _, _, arc, half = _exact_primitives(cam)
+    A, B = np.column_stack([arc, np.ones(len(arc))]), np.column_stack([half, np.ones(len(half))])
+    fit = _CircleViewFit(cam.K, cam.R, A, B, np.diag([1.0, 1.0, -R * R]), offset)
+    rng = np.random.default_rng(3)
+    for _ in range(2):
+        x = np.concatenate([np.zeros(3), cam.center]) + np.concatenate([rng.normal(0, 2e-3, 3), rng.normal(0, 0.02, 3)])
+        J, num = fit.jacobian(x), approx_derivative(fit.residuals, x, method="3-point", rel_step=1e-5)
+        assert J.shape == (len(A) + len(B), 6)
+        # (relative to each parameter's column: central differences at this
+        # step are good to about 4e-7 of it here, their truncation and
+        # rounding errors about equal)
+        assert np.all(np.abs(J - num).max(axis=0) <= 2e-6 * np.abs(num).max(axis=0)), np.abs(J - num).max(axis=0) / np.abs(num).max(axis=0)
+
+
 def test_the_family_fits_the_arc_at_every_focal_length_and_the_far_touchline_tells_them_apart():
     cam = _low_far_camera()
     E, lh, arc, half = _exact_primitives(cam)
