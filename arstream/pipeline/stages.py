@@ -358,9 +358,6 @@ class TrackStage(Stage):
         #: pitch's size fits the clip (the tracker's own test works at the
         #: analysis size and on white paint, and tells sizes apart less well)
         self.supports: list = []
-        #: frames whose camera the whole frame's line support put below
-        #: :data:`MIN_DRAWN_SUPPORT`, reported "lost"
-        self.undrawn = 0
         self.available = tracker is not None
         self.lag = int(lag)
         self.max_held = self.lag + 8
@@ -402,7 +399,6 @@ class TrackStage(Stage):
                 mask = frame_mask(it.frame)
                 share = line_support(est.camera, mask, marking_points(self.tracker.pitch)).share
                 if share is not None and share < MIN_DRAWN_SUPPORT:
-                    self.undrawn += 1
                     est = CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {share:.2f} on the whole frame)")
             it.estimate = est
             if est.frame % JUDGE_EVERY == 0:
