@@ -407,26 +407,32 @@ class _CircleViewFit:
         self.K, self.R0, self.A, self.B, self.Cw = K, R0, A, B, Cw
         self.line = np.array([1.0, 0.0, -offset])  # X = offset, homogeneous pitch-plane line
         self.n = len(A) + len(B)
+        self._last: tuple[bytes, tuple | None] | None = None  # (x, its _parts): the solver asks for both at one x
 
     def _parts(self, x):
-        """(R, dR/dx[:3] (3, 3, 3), H^-1), or None where H is singular."""
+        """(R, dR/dx[:3] (3, 3, 3), H^-1, the line's image (3,), ``A`` times
+        the circle's image (N, 3)), or None where H is singular."""
+        key = x.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
         Rr, J = cv2.Rodrigues(x[:3])
         R = Rr @ self.R0
         H = self.K @ np.column_stack([R[:, 0], R[:, 1], -R @ x[3:6]])
         try:
             Hi = np.linalg.inv(H)
         except np.linalg.LinAlgError:
-            return None
-        return R, J.reshape(3, 3, 3) @ self.R0, Hi
+            out = None
+        else:
+            Ci = Hi.T @ self.Cw @ Hi
+            out = (R, J.reshape(3, 3, 3) @ self.R0, Hi, self.line @ Hi, self.A @ Ci)  # (the line's image: H^-T (1, 0, -offset))
+        self._last = (key, out)
+        return out
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         p = self._parts(x)
         if p is None:
             return np.full(self.n, 1e3)
-        Hi = p[2]
-        lx = self.line @ Hi  # the image of X = offset: H^-T (1, 0, -offset)
-        Ci = Hi.T @ self.Cw @ Hi
-        CA = self.A @ Ci
+        lx, CA = p[3], p[4]
         out = np.concatenate([(self.B @ lx) / np.hypot(lx[0], lx[1]), np.einsum("ij,ij->i", CA, self.A) / (2.0 * np.hypot(CA[:, 0], CA[:, 1]))])
         return out if np.all(np.isfinite(out)) else np.full(self.n, 1e3)
 
@@ -437,18 +443,15 @@ class _CircleViewFit:
         p = self._parts(x)
         if p is None:
             return np.zeros((self.n, 6))
-        R, dR, Hi = p
+        R, dR, Hi, lx, CA = p
         K, A, B, Cw, line = self.K, self.A, self.B, self.Cw, self.line
         dH = np.zeros((6, 3, 3))
         dH[:3, :, 0], dH[:3, :, 1], dH[:3, :, 2] = dR[:, :, 0] @ K.T, dR[:, :, 1] @ K.T, -(dR @ x[3:6]) @ K.T
         dH[3:, :, 2] = -(K @ R).T
         dHi = -np.einsum("ij,pjk,kl->pil", Hi, dH, Hi)
-        lx = line @ Hi
         dlx = dHi.transpose(0, 2, 1) @ line  # (6, 3)
         n = np.hypot(lx[0], lx[1])
         dline = (B @ dlx.T) / n - np.outer(B @ lx, dlx[:, :2] @ lx[:2]) / n**3
-        Ci = Hi.T @ Cw @ Hi
-        CA = A @ Ci
         q, g = np.einsum("ij,ij->i", CA, A), np.hypot(CA[:, 0], CA[:, 1])
         M = np.einsum("pji,jk,kl->pil", dHi, Cw, Hi)
         dCA = np.einsum("nj,pjk->pnk", A, M + M.transpose(0, 2, 1))  # (6, N, 3)

@@ -406,7 +406,7 @@ class Tracker:
         self._last_z = None
         self._paint_noise = self.cfg.paint_noise
         if not keep_centre:
-            self._given_up = (self.centre if self.centre is not None else self._given_up) if wrong else None
+            self._given_up = self._tripod() if wrong else None
             self.centre = None
             self._centres.clear()
             self._centre_views.clear()
@@ -624,7 +624,8 @@ class Tracker:
                 self._paint = True
                 self._kf = None
                 tripod = self._tripod()
-                if self.centre is not None or (tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break):
+                far = tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break
+                if self.centre is not None or far:
                     # the same tripod? the frozen centre, unless the frame's
                     # paint backs it clearly less (the paint's initialiser
                     # knows no centre); a centre given up only where the
@@ -636,7 +637,7 @@ class Tracker:
                     sc = None if rc is None else self._support(index, rc.camera, image)[0]
                     if sc is not None and sc >= min(sup, self.cfg.paint_accept) - 0.05:
                         meas = rc
-                    elif np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break:
+                    elif far:
                         if self._another_camera(index, r.camera):
                             self.reset(keep_centre=False)
                         else:
