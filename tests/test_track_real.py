@@ -249,3 +249,48 @@ def test_a_fresh_camera_far_from_the_given_up_tripod_is_not_output(monkeypatch, 
         assert est.status == "lost" and tr.stats["other_refused"] == 1, est
     else:
         assert est.status == "ok" and np.allclose(est.camera.center, proposed.camera.center), est
+
+
+@pytest.mark.parametrize("turned", [True, False])
+def test_a_centre_fixed_along_a_centre_circle_views_axis_is_found_from_a_turned_view(turned):
+    from arstream.detect import detect
+    from arstream.evaluate import frame_error
+    from arstream.initialise import paint_view
+    from arstream.solve import LineIndex, refine_camera, seated
+    from arstream.track import _ptz_vector
+    from geometry.pitch import PitchModel
+
+    def lines(cam):
+        img = _frame(cam, SIZE)
+        det = detect(img)
+        return LineIndex(np.concatenate([det.line_points, paint_view(img, det).points]))
+
+    # the centre was fixed in a view of the centre circle, 4 m too far out
+    # along that view's line of sight (where its focal length and distance
+    # trade); the camera then turned to the penalty area
+    truth = np.array([-5.0, -60.0, 14.0])
+    first = looking_at(truth, (0.0, 0.0, 0.0), 3.0 * SIZE[0], SIZE)
+    wrong = truth - 4.0 * first.R[2]
+    cam = looking_at(truth, (-38.0, 4.0, 0.0), 1.6 * SIZE[0], SIZE)
+    lidx = lines(cam)
+    tr = Tracker(*SIZE)
+    tr._paint = True
+    tr.centre = wrong.copy()
+    # the view the centre was fixed in, as the tracker saw it: its camera about
+    # the wrong centre (not turned: the view itself, whose axis it cannot tell
+    # the centre along)
+    fixed_in = first if turned else cam
+    tr._centre_view = (lines(fixed_in), seated(fixed_in, wrong, tr.model, SIZE))
+    start = camera_from_ptz(wrong, ptz_from_camera(cam)[1], cam.principal_point)
+    meas = refine_camera(start, lidx, SIZE, tr.model, center=wrong, radii=(8.0, 4.0, 2.5))
+    tr._kf = tr._new_filter(_ptz_vector(meas.camera, wrong), np.eye(4) * 1e-6)
+    out = tr._check_centre(100, meas, lidx)
+    if not turned:
+        assert tr.stats["axis_moves"] == 0 and tr._axis_tries == 0
+        return
+    assert tr.stats["axis_moves"] == 1 and tr._centre_view is None
+    assert np.linalg.norm(tr.centre - truth) < 0.5 * np.linalg.norm(wrong - truth), tr.centre
+    pitch = PitchModel()
+    pts = pitch.sample_points(0.5)
+    assert frame_error(cam, out.camera, SIZE, pts, pitch.symmetries).mean < 0.5 * frame_error(cam, meas.camera, SIZE, pts, pitch.symmetries).mean
+    assert np.allclose(tr._kf.x[0::2, 0], _ptz_vector(out.camera, tr.centre), atol=1e-9)
