@@ -44,13 +44,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.sparse import lil_matrix
 
 from arstream.solve import LineIndex, ModelSamples
-from arstream.solve_kernels import project_points
+from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
@@ -319,154 +316,6 @@ def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray
     return dL, dW
 
 
-@dataclass
-class _Matches:
-    """One view's associations for a round: model points, their derivatives, the
-    paint pixels they matched and the projected markings' normals there."""
-
-    X: np.ndarray
-    dL: np.ndarray
-    dW: np.ndarray
-    q: np.ndarray
-    n: np.ndarray
-    marking: np.ndarray
-
-
-def _camera(view: Camera, R0: np.ndarray, w: np.ndarray, logf0: float, logf: float, C: np.ndarray, kappa: float | None) -> Camera:
-    """``view``'s camera turned by ``w`` (rad, about the camera's axes) from ``R0``,
-    its focal length ``exp(logf)``, centre ``C``; radial ``k1 = kappa / f`` (None: its own)."""
-    R = cv2.Rodrigues(np.asarray(w, np.float64).reshape(3, 1))[0] @ R0
-    K = view.K.copy()
-    s = np.exp(logf - logf0)
-    K[0, 0] *= s
-    K[1, 1] *= s
-    K[0, 1] *= s
-    dist = view.dist if kappa is None else (float(kappa) / K[0, 0],)
-    return Camera.trusted(K, R, -R @ C, dist)
-
-
-def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
-    c = np.ascontiguousarray
-    px, _ = project_points(c(X, np.float64), c(cam.R, np.float64), c(cam.t, np.float64), c(cam.K, np.float64), np.asarray(cam.dist, np.float64), int(size[0]), int(size[1]), -1e6, 0.1)
-    return px
-
-
-def _fit(views, line_index, indices, model, dL0, dW0, L0, W0, C0, free, radii, max_points, seed_x=None, systematic_px=1.0):
-    """The joint least squares over the views ``indices`` (into ``views`` and
-    their ``line_index``): returns (parameters, cameras, inlier RMS (px),
-    (centre, length, width), [sd of length, sd of width] (least squares with the
-    systematic term; inf where not free)). ``free``: (length free, width free)."""
-    nv = len(indices)
-    R0 = [views[i].camera.R for i in indices]
-    f0 = [np.log(views[i].camera.focal) for i in indices]
-    nfree = int(free[0]) + int(free[1])
-    # a zoom lens's k1 goes as 1 / f: one k1 f for all views, when they have a lens term
-    lens = any(views[i].camera.dist for i in indices)
-    ns = 3 + nfree + int(lens)
-    x = np.zeros(ns + 4 * nv)
-    x[:3] = C0
-    if lens:
-        x[ns - 1] = np.median([(views[i].camera.dist[0] if views[i].camera.dist else 0.0) * views[i].camera.focal for i in indices])
-    for j in range(nv):
-        x[ns + 4 * j + 3] = f0[j]
-    if seed_x is not None:
-        x[:] = seed_x
-
-    def unpack(x):
-        C = x[:3]
-        k = 3
-        L, W = L0, W0
-        if free[0]:
-            L = L0 + x[k]
-            k += 1
-        if free[1]:
-            W = W0 + x[k]
-        return C, L, W, (x[ns - 1] if lens else None)
-
-    def cams(x):
-        C, _, _, kappa = unpack(x)
-        return [_camera(views[i].camera, R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
-
-    matches = None
-    res = None
-    for radius in radii:
-        C, L, W, _ = unpack(x)
-        cs = cams(x)
-        matches = []
-        for j, i in enumerate(indices):
-            v = views[i]
-            P = model.points + dL0 * (L - L0) + dW0 * (W - W0)
-            px, inside = project_points(P, np.ascontiguousarray(cs[j].R), np.ascontiguousarray(cs[j].t), np.ascontiguousarray(cs[j].K), np.asarray(cs[j].dist, np.float64), int(v.size[0]), int(v.size[1]), 2.0, 0.5)
-            idx = np.flatnonzero(inside)
-            if len(idx) > max_points:
-                idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(int)]
-            d, q = line_index[i].nearest(px[idx], radius)
-            ok = np.isfinite(d)
-            idx, q = idx[ok], q[ok]
-            X = P[idx]
-            p_ab = _project(cs[j], np.concatenate([X, X + 0.05 * model.tangents[idx]]), v.size)
-            tg = p_ab[len(X) :] - p_ab[: len(X)]
-            nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
-            nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
-            matches.append(_Matches(model.points[idx], dL0[idx], dW0[idx], q, nrm, model.marking[idx]))
-        sizes = [len(m.q) for m in matches]
-        if sum(sizes) < ns + 4 * nv + 8 or min(sizes) < 8:
-            raise ValueError("too few marking points matched to the views' paint")
-
-        def fun(x):
-            C, L, W, kappa = unpack(x)
-            out = []
-            for j, m in enumerate(matches):
-                cam = _camera(views[indices[j]].camera, R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
-                p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), views[indices[j]].size)
-                r = np.einsum("ij,ij->i", m.n, p - m.q)
-                out.append(np.where(np.isfinite(r), r, 50.0))
-            return np.concatenate(out)
-
-        S = lil_matrix((sum(sizes), len(x)), dtype=np.int8)
-        row = 0
-        for j, n in enumerate(sizes):
-            S[row : row + n, :ns] = 1
-            S[row : row + n, ns + 4 * j : ns + 4 * j + 4] = 1
-            row += n
-        res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
-        x = res.x
-    r = res.fun
-    inl = np.abs(r) < 2.5
-    rms = float(np.sqrt(np.mean(r[inl] ** 2))) if inl.any() else float("inf")
-    # the least-squares standard deviations of the size (a floor for the jackknife's:
-    # views alike leave a direction the data do not fix with a jackknife near zero)
-    J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
-    J = J[inl]
-    # (a direction the views leave open keeps its huge variance: eigenvalues are
-    # floored, not dropped as a pseudo-inverse would)
-    # Besides the noise, each marking of each view may sit ``systematic_px`` off its
-    # paint as a whole (a line's centre on a compressed, blurred picture; lens
-    # distortion beyond one term): its effect on the size, from the normal
-    # equations, adds up over those (view, marking) groups independently.
-    groups = np.concatenate([j * 10_000 + m.marking for j, m in enumerate(matches)])[inl]
-    try:
-        lam, V = np.linalg.eigh(J.T @ J)
-        lam = np.maximum(lam, 1e-12 * max(lam.max(), 1e-300))
-        Ainv = (V / lam) @ V.T
-        cov = Ainv * max(rms, 0.3) ** 2
-        rows = slice(3, 3 + nfree)
-        G = Ainv[rows] @ J.T  # (nfree, N): d(size) / d(residual)
-        _, g = np.unique(groups, return_inverse=True)
-        per_group = np.stack([np.bincount(g, weights=G[k]) for k in range(nfree)]) if nfree else np.zeros((0, 0))
-        sys_var = systematic_px**2 * (per_group**2).sum(axis=1) if nfree else np.zeros(0)
-        ls_sd = np.sqrt(np.maximum(np.diag(cov)[rows], 0.0) + sys_var)
-    except np.linalg.LinAlgError:
-        ls_sd = np.full(nfree, np.inf)
-    sd = [np.inf, np.inf]
-    k = 0
-    for d in range(2):
-        if free[d]:
-            sd[d] = float(ls_sd[k])
-            k += 1
-    return x, cams(x), rms, unpack(x)[:3], sd
-
-
 def estimate_pitch_size(
     views: list[PitchView],
     prior: PitchModel | None = None,
@@ -514,7 +363,8 @@ def estimate_pitch_size(
     for _ in range(3):  # free both; fix what the views leave open; refit
         if not any(free):
             break
-        x, cams, rms, (C, L, W), ls_sd = _fit(views, line_index, all_, model, dL0, dW0, L0, W0, C0, free, radii, max_points, systematic_px=systematic_px)
+        fit = fit_tripod([v.camera for v in views], line_index, [v.size for v in views], model, C0, prior, derivatives=(dL0, dW0), free=free, radii=radii, max_points=max_points, systematic_px=systematic_px)
+        x, cams, rms, C, L, W, ls_sd = fit.x, fit.cameras, fit.rms, fit.centre, fit.length, fit.width, fit.size_sd
         ns = len(x) - 4 * len(views)
         # the jackknife: each view left out in turn, started from the full fit
         est = []
@@ -522,10 +372,10 @@ def estimate_pitch_size(
             keep = [i for i in all_ if i != k]
             seed = np.concatenate([x[:ns], np.delete(x[ns:].reshape(-1, 4), k, axis=0).ravel()])
             try:
-                _, _, _, (_, Lk, Wk), _ = _fit(views, line_index, keep, model, dL0, dW0, L0, W0, C0, free, radii[-1:], max_points, seed_x=seed)
+                fk = fit_tripod([views[i].camera for i in keep], [line_index[i] for i in keep], [views[i].size for i in keep], model, C0, prior, derivatives=(dL0, dW0), free=free, radii=radii[-1:], max_points=max_points, seed_x=seed)
             except ValueError:
                 continue
-            est.append((Lk, Wk))
+            est.append((fk.length, fk.width))
         n = len(est)
         if n < 3:
             raise ValueError("too few views fit the markings to estimate the pitch's size")

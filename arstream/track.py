@@ -54,6 +54,7 @@ from scipy.linalg import block_diag
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
+from arstream.tripod import fit_tripod
 from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, still_paint_camera, view_supports
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
@@ -1329,7 +1330,20 @@ class Tracker:
         area every frame was drawn 40-60 px off at a line support of about
         0.6. The centre lies near that axis; a view that has turned from it
         sees the axis across its own line of sight, and fixes the point on it:
-        the two views triangulate the centre."""
+        the two views triangulate the centre.
+
+        The grid finds the basin; the point on the axis it picks can be a
+        metre or two off (its 2 m steps, and the turned view alone is flat
+        along its own line of sight): a later free pose that would have found
+        the centre then no longer moves it. So both views are then fitted
+        jointly about one centre, started there (:meth:`_two_views`,
+        :func:`arstream.tripod.fit_tripod`), and that centre is kept when the
+        two views together lay at least as many of their markings near a line
+        pixel about it as about the grid's point (each view refined about the
+        centre, shares added). On the 720p crf 28 copy of the clip from frame
+        60 the grid's point was (21.6, -58.0, 8.9) m, the joint fit's (24.6,
+        -61.4, 9.6), where the full-size run's centre is (24.8, -61.4,
+        9.7)."""
         if self._centre_view is None or self._axis_tries >= self.cfg.axis_tries:
             return None
         first_lidx, first = self._centre_view
@@ -1341,11 +1355,8 @@ class Tracker:
 
         def about(s: float) -> Refinement | None:
             C = self.centre + s * axis
-            try:
-                r = refine_camera(seated(meas.camera, C, self.model, self.size), lidx, self.size, self.model, center=C, estimate_k1=want_k1, radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
-            except ValueError:
-                return None
-            return r if plausible(C, r.camera.focal, self.size[0], self.pitch)[0] else None
+            r = self._about(meas.camera, lidx, C)
+            return r if r is not None and plausible(C, r.camera.focal, self.size[0], self.pitch)[0] else None
 
         fits = {float(s): about(float(s)) for s in np.arange(-span, span + step / 2, step)}
         base = fits.get(0.0)
@@ -1372,6 +1383,10 @@ class Tracker:
         return best
 
     def _about(self, cam: Camera, lidx: LineIndex, C: np.ndarray) -> Refinement | None:
+        """``cam``'s frame (its line pixels ``lidx``) refined about the centre
+        ``C`` (3,) from ``cam`` moved there keeping its picture
+        (:func:`arstream.solve.seated`), searched from 20 px in; None where
+        too few markings match."""
         try:
             return refine_camera(seated(cam, C, self.model, self.size), lidx, self.size, self.model, center=C, estimate_k1=self._want_k1(cam.focal), radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
         except ValueError:
@@ -1382,14 +1397,10 @@ class Tracker:
         fixed in, ``first``, and a turned one, ``cam``, both started about
         ``cam``'s centre keeping their pictures); returns ``cam``'s frame
         refined about it (None where the fit fails)."""
-        from arstream.pitch_size import PitchView, _fit
-
         C0 = cam.center
-        views = [PitchView(seated(first, C0, self.model, self.size), None, self.size), PitchView(cam, None, self.size)]
-        z = np.zeros_like(self.model.points)
         try:
-            _, cams, _, (C, _, _), _ = _fit(views, [first_lidx, lidx], [0, 1], self.model, z, z, self.pitch.length, self.pitch.width, C0, (False, False), (8.0, 4.0, 2.5), 400)
-            r = refine_camera(cams[1], lidx, self.size, self.model, center=np.asarray(C), estimate_k1=want_k1, radii=(4.0, 2.5), max_points=400)
+            fit = fit_tripod([seated(first, C0, self.model, self.size), cam], [first_lidx, lidx], [self.size, self.size], self.model, C0, self.pitch)
+            r = refine_camera(fit.cameras[1], lidx, self.size, self.model, center=fit.centre, estimate_k1=want_k1, radii=(4.0, 2.5), max_points=400)
         except ValueError:
             return None
         return r if plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0] else None
@@ -1412,9 +1423,8 @@ class Tracker:
         fewer than two such frames."""
         gains = []
         for lj, cj, confj in recent:
-            try:
-                rj = refine_camera(seated(cj, centre, self.model, self.size), lj, self.size, self.model, center=centre, estimate_k1=self._want_k1(cj.focal), radii=(20.0, 10.0, 5.0, 3.0, 2.5), max_points=400)
-            except ValueError:
+            rj = self._about(cj, lj, centre)
+            if rj is None:
                 return False
             gains.append(rj.confidence - confj)
         return len(gains) >= 2 and float(np.mean(gains)) > 0.0 and min(gains) > -self.cfg.centre_gain / 2

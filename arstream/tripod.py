@@ -1,0 +1,260 @@
+"""Views of one tripod camera refined jointly (issue 29).
+
+A broadcast main camera turns and zooms on a tripod: its centre is one point
+for the whole shot. A single view fixes that point poorly along its line of
+sight (a long lens's focal length and distance trade), two views turned from
+each other fix it where those lines cross. :func:`fit_tripod` refines views
+jointly to their frames' paint pixels: one centre, a rotation and focal
+length per view, optionally the pitch's length and width
+(:func:`arstream.pitch_size.estimate_pitch_size` frees them; the tracker
+triangulates its tripod centre from two views with the size fixed,
+:meth:`arstream.track.Tracker._check_centre`).
+
+Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
+spot, Z up); pixels of each view's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import lil_matrix
+
+from arstream.solve import ModelSamples
+from arstream.solve_kernels import project_points
+from geometry.camera import Camera
+from geometry.pitch import PitchModel
+
+__all__ = ["TripodFit", "fit_tripod"]
+
+
+@dataclass(frozen=True)
+class TripodFit:
+    """Result of :func:`fit_tripod`.
+
+    Attributes
+    ----------
+    x : the parameter vector (centre, free size offsets, ``k1 f`` where the
+        views have a lens term, then per view a rotation vector and log f): a
+        ``seed_x`` for a fit of the same views
+    cameras : tuple of Camera, the views' refined cameras (frame pixels)
+    rms : px, RMS of the inlier residuals (|r| < 2.5 px) of the last round
+    centre : (3,) metres, the shared camera centre
+    length, width : metres, the pitch's (the prior's where not free)
+    size_sd : (length sd, width sd) metres from the least squares with the
+        systematic term; inf where not free
+    """
+
+    x: np.ndarray
+    cameras: tuple
+    rms: float
+    centre: np.ndarray
+    length: float
+    width: float
+    size_sd: tuple[float, float]
+
+
+@dataclass
+class _Matches:
+    """One view's associations for a round: model points, their derivatives, the
+    paint pixels they matched and the projected markings' normals there."""
+
+    X: np.ndarray
+    dL: np.ndarray
+    dW: np.ndarray
+    q: np.ndarray
+    n: np.ndarray
+    marking: np.ndarray
+
+
+def _camera(view: Camera, R0: np.ndarray, w: np.ndarray, logf0: float, logf: float, C: np.ndarray, kappa: float | None) -> Camera:
+    """``view``'s camera turned by ``w`` (rad, about the camera's axes) from ``R0``,
+    its focal length ``exp(logf)``, centre ``C``; radial ``k1 = kappa / f`` (None: its own)."""
+    R = cv2.Rodrigues(np.asarray(w, np.float64).reshape(3, 1))[0] @ R0
+    K = view.K.copy()
+    s = np.exp(logf - logf0)
+    K[0, 0] *= s
+    K[1, 1] *= s
+    K[0, 1] *= s
+    dist = view.dist if kappa is None else (float(kappa) / K[0, 0],)
+    return Camera.trusted(K, R, -R @ C, dist)
+
+
+def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
+    c = np.ascontiguousarray
+    px, _ = project_points(c(X, np.float64), c(cam.R, np.float64), c(cam.t, np.float64), c(cam.K, np.float64), np.asarray(cam.dist, np.float64), int(size[0]), int(size[1]), -1e6, 0.1)
+    return px
+
+
+
+def fit_tripod(
+    cameras,
+    line_index,
+    sizes,
+    model: ModelSamples,
+    centre,
+    pitch: PitchModel,
+    *,
+    derivatives: tuple[np.ndarray, np.ndarray] | None = None,
+    free=(False, False),
+    radii=(8.0, 4.0, 2.5),
+    max_points: int = 400,
+    seed_x: np.ndarray | None = None,
+    systematic_px: float = 1.0,
+) -> TripodFit:
+    """Views of one tripod camera refined jointly to their frames' paint.
+
+    One camera centre for all views and, where ``free``, the pitch's length
+    and width; a rotation and a focal length per view; one ``k1 f`` for all
+    views when any has a lens term (a zoom lens's k1 goes as 1 / f). Each
+    round associates every view's model samples in view (at most
+    ``max_points``, evenly thinned) with their nearest paint pixel within
+    the round's radius, and minimises the distances along the projected
+    markings' normals (soft L1, 1 px scale).
+
+    Parameters
+    ----------
+    cameras : sequence of Camera, the views' starting cameras (their
+        centres are replaced by ``centre``)
+    line_index : sequence of LineIndex, each view's paint (line) pixels
+    sizes : sequence of (width, height), each view's frame size in pixels
+    model : ModelSamples of ``pitch`` (metres, pitch frame)
+    centre : (3,) metres, the starting tripod centre
+    pitch : PitchModel the samples were taken from
+    derivatives : (dL, dW), (N, 3) each, how the samples move with the length
+        and width (:func:`arstream.pitch_size.size_derivatives`); needed
+        where ``free``
+    free : (length free, width free)
+    radii : px, the successive association radii (one round each)
+    max_points : model samples per view and round
+    seed_x : a parameter vector to start from (as :attr:`TripodFit.x`)
+    systematic_px : px, how far each marking of each view may sit off its
+        paint as a whole (added to the size's standard deviation)
+
+    Returns
+    -------
+    TripodFit
+
+    Raises
+    ------
+    ValueError
+        Too few model samples matched to the views' paint.
+    """
+    if any(free) and derivatives is None:
+        raise ValueError("a free length or width needs the samples' size derivatives")
+    dL0, dW0 = derivatives if derivatives is not None else (np.zeros_like(model.points), np.zeros_like(model.points))
+    L0, W0 = pitch.length, pitch.width
+    C0 = np.asarray(centre, np.float64)
+    indices = list(range(len(cameras)))
+    nv = len(indices)
+    R0 = [cameras[i].R for i in indices]
+    f0 = [np.log(cameras[i].focal) for i in indices]
+    nfree = int(free[0]) + int(free[1])
+    # a zoom lens's k1 goes as 1 / f: one k1 f for all views, when they have a lens term
+    lens = any(cameras[i].dist for i in indices)
+    ns = 3 + nfree + int(lens)
+    x = np.zeros(ns + 4 * nv)
+    x[:3] = C0
+    if lens:
+        x[ns - 1] = np.median([(cameras[i].dist[0] if cameras[i].dist else 0.0) * cameras[i].focal for i in indices])
+    for j in range(nv):
+        x[ns + 4 * j + 3] = f0[j]
+    if seed_x is not None:
+        x[:] = seed_x
+
+    def unpack(x):
+        C = x[:3]
+        k = 3
+        L, W = L0, W0
+        if free[0]:
+            L = L0 + x[k]
+            k += 1
+        if free[1]:
+            W = W0 + x[k]
+        return C, L, W, (x[ns - 1] if lens else None)
+
+    def cams(x):
+        C, _, _, kappa = unpack(x)
+        return [_camera(cameras[i], R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
+
+    matches = None
+    res = None
+    for radius in radii:
+        C, L, W, _ = unpack(x)
+        cs = cams(x)
+        matches = []
+        for j, i in enumerate(indices):
+            P = model.points + dL0 * (L - L0) + dW0 * (W - W0)
+            px, inside = project_points(P, np.ascontiguousarray(cs[j].R), np.ascontiguousarray(cs[j].t), np.ascontiguousarray(cs[j].K), np.asarray(cs[j].dist, np.float64), int(sizes[i][0]), int(sizes[i][1]), 2.0, 0.5)
+            idx = np.flatnonzero(inside)
+            if len(idx) > max_points:
+                idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(int)]
+            d, q = line_index[i].nearest(px[idx], radius)
+            ok = np.isfinite(d)
+            idx, q = idx[ok], q[ok]
+            X = P[idx]
+            p_ab = _project(cs[j], np.concatenate([X, X + 0.05 * model.tangents[idx]]), sizes[i])
+            tg = p_ab[len(X) :] - p_ab[: len(X)]
+            nrm = np.column_stack([-tg[:, 1], tg[:, 0]])
+            nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-12
+            matches.append(_Matches(model.points[idx], dL0[idx], dW0[idx], q, nrm, model.marking[idx]))
+        counts = [len(m.q) for m in matches]
+        if sum(counts) < ns + 4 * nv + 8 or min(counts) < 8:
+            raise ValueError("too few marking points matched to the views' paint")
+
+        def fun(x):
+            C, L, W, kappa = unpack(x)
+            out = []
+            for j, m in enumerate(matches):
+                cam = _camera(cameras[indices[j]], R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
+                p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), sizes[indices[j]])
+                r = np.einsum("ij,ij->i", m.n, p - m.q)
+                out.append(np.where(np.isfinite(r), r, 50.0))
+            return np.concatenate(out)
+
+        S = lil_matrix((sum(counts), len(x)), dtype=np.int8)
+        row = 0
+        for j, n in enumerate(counts):
+            S[row : row + n, :ns] = 1
+            S[row : row + n, ns + 4 * j : ns + 4 * j + 4] = 1
+            row += n
+        res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
+        x = res.x
+    r = res.fun
+    inl = np.abs(r) < 2.5
+    rms = float(np.sqrt(np.mean(r[inl] ** 2))) if inl.any() else float("inf")
+    # the least-squares standard deviations of the size (a floor for the jackknife's:
+    # views alike leave a direction the data do not fix with a jackknife near zero)
+    J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
+    J = J[inl]
+    # (a direction the views leave open keeps its huge variance: eigenvalues are
+    # floored, not dropped as a pseudo-inverse would)
+    # Besides the noise, each marking of each view may sit ``systematic_px`` off its
+    # paint as a whole (a line's centre on a compressed, blurred picture; lens
+    # distortion beyond one term): its effect on the size, from the normal
+    # equations, adds up over those (view, marking) groups independently.
+    groups = np.concatenate([j * 10_000 + m.marking for j, m in enumerate(matches)])[inl]
+    try:
+        lam, V = np.linalg.eigh(J.T @ J)
+        lam = np.maximum(lam, 1e-12 * max(lam.max(), 1e-300))
+        Ainv = (V / lam) @ V.T
+        cov = Ainv * max(rms, 0.3) ** 2
+        rows = slice(3, 3 + nfree)
+        G = Ainv[rows] @ J.T  # (nfree, N): d(size) / d(residual)
+        _, g = np.unique(groups, return_inverse=True)
+        per_group = np.stack([np.bincount(g, weights=G[k]) for k in range(nfree)]) if nfree else np.zeros((0, 0))
+        sys_var = systematic_px**2 * (per_group**2).sum(axis=1) if nfree else np.zeros(0)
+        ls_sd = np.sqrt(np.maximum(np.diag(cov)[rows], 0.0) + sys_var)
+    except np.linalg.LinAlgError:
+        ls_sd = np.full(nfree, np.inf)
+    sd = [np.inf, np.inf]
+    k = 0
+    for d in range(2):
+        if free[d]:
+            sd[d] = float(ls_sd[k])
+            k += 1
+    C, L, W, _ = unpack(x)
+    return TripodFit(x, tuple(cams(x)), rms, np.asarray(C, np.float64).copy(), float(L), float(W), (sd[0], sd[1]))

@@ -1,0 +1,64 @@
+"""arstream.tripod.fit_tripod: views of one tripod camera refined jointly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from cameras import looking_at
+
+from arstream.solve import LineIndex, ModelSamples, seated
+from arstream.tripod import fit_tripod
+from geometry.pitch import PitchModel
+
+SIZE = (1280, 720)
+PITCH = PitchModel()
+MODEL = ModelSamples.from_pitch(PITCH, 0.5)
+TRUTH = np.array([-5.0, -60.0, 14.0])
+# a long lens on the centre circle, and the same tripod turned to a penalty area
+FIRST = looking_at(TRUTH, (0.0, 0.0, 0.0), 3.0 * SIZE[0], SIZE)
+TURNED = looking_at(TRUTH, (-38.0, 4.0, 0.0), 1.6 * SIZE[0], SIZE)
+
+
+def _markings():
+    pts = PITCH.sample_points(0.05)
+    return np.column_stack([pts, np.zeros(len(pts))]) if pts.shape[1] == 2 else pts
+
+
+def _in_view(cam, X):
+    px = cam.project(X)
+    ok = np.all(np.isfinite(px), axis=1) & (px[:, 0] >= 0) & (px[:, 0] < SIZE[0]) & (px[:, 1] >= 0) & (px[:, 1] < SIZE[1])
+    return px, ok
+
+
+def _paint(cam):
+    """Exact paint: the markings' centrelines every 5 cm, projected."""
+    px, ok = _in_view(cam, _markings())
+    return LineIndex(px[ok])
+
+
+@pytest.mark.parametrize("along", [2.0, -3.0])
+def test_two_views_started_off_along_the_first_views_axis_find_the_centre(along):
+    # started metres out along the long lens's line of sight (where its focal
+    # length and distance trade), each view moved there keeping its picture
+    start = TRUTH + along * FIRST.R[2]
+    views = [seated(c, start, MODEL, SIZE) for c in (FIRST, TURNED)]
+    fit = fit_tripod(views, [_paint(FIRST), _paint(TURNED)], [SIZE, SIZE], MODEL, start, PITCH)
+    # exact paint: the arithmetic's floor, far below a millimetre
+    assert np.linalg.norm(fit.centre - TRUTH) < 1e-3, fit.centre
+    X = _markings()
+    for got, truth in zip(fit.cameras, (FIRST, TURNED)):
+        px, ok = _in_view(truth, X)
+        assert np.abs(got.project(X[ok]) - px[ok]).max() < 0.01
+        assert np.allclose(got.center, fit.centre)
+    assert fit.rms < 0.01 and (fit.length, fit.width) == (PITCH.length, PITCH.width)
+    assert fit.size_sd == (np.inf, np.inf)
+
+
+def test_a_fit_is_refused_with_a_clear_error():
+    paint = _paint(FIRST)
+    with pytest.raises(ValueError, match="a free length or width needs the samples' size derivatives"):
+        fit_tripod([FIRST], [paint], [SIZE], MODEL, TRUTH, PITCH, free=(True, False))
+    # paint that is nowhere near the markings in view
+    nowhere = LineIndex(np.array([[5.0, 5.0], [6.0, 5.0]]))
+    with pytest.raises(ValueError, match="too few marking points matched to the views' paint"):
+        fit_tripod([FIRST, TURNED], [paint, nowhere], [SIZE, SIZE], MODEL, TRUTH, PITCH)
