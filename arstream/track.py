@@ -1245,7 +1245,11 @@ class Tracker:
           the candidates start again from it (a free pose of one frame is
           not trusted alone: through a long lens they scatter by metres).
 
-        Either way the tracker goes on about the new centre: the measurement
+        And once the view has turned from the one the centre was fixed in, the
+        two views triangulate it (:meth:`_along_first_axis`), before the two
+        ways above.
+
+        Any way the tracker goes on about the new centre: the measurement
         refined about it, the filter's angles set to it (its rates kept, its
         angle variances widened). Returns the measurement to use."""
         self._centre_check_at = index
