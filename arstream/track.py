@@ -221,6 +221,35 @@ def _window_points(cam: Camera, centre: np.ndarray, offsets_px: np.ndarray, poin
     return points[near.any(axis=0)]
 
 
+@dataclass(frozen=True)
+class _CameraStep:
+    """How one camera differs from another: ``b`` is ``a`` moved by ``dC``
+    (3,) metres, turned by the rotation vector ``dr`` (3,) (pitch frame,
+    ``R_b = exp(dr) R_a``) and zoomed by ``exp(dlogf)``."""
+
+    dC: np.ndarray
+    dr: np.ndarray
+    dlogf: float
+
+    @classmethod
+    def between(cls, a: Camera, b: Camera) -> "_CameraStep":
+        dr = cv2.Rodrigues(b.R @ a.R.T)[0].ravel()
+        return cls(b.center - a.center, dr, float(np.log(b.focal / a.focal)))
+
+    def apply(self, cam: Camera, w: float) -> Camera:
+        """``cam`` moved by the share ``w`` (0-1) of the step: centre, rotation
+        (about the pitch frame's axes) and log focal length alike; its lens
+        terms kept."""
+        R = cv2.Rodrigues(w * self.dr.reshape(3, 1))[0] @ cam.R
+        K = cam.K.copy()
+        s = float(np.exp(w * self.dlogf))
+        K[0, 0] *= s
+        K[1, 1] *= s
+        K[0, 1] *= s
+        C = cam.center + w * self.dC
+        return Camera.trusted(K, R, -R @ C, cam.dist)
+
+
 def _unsupported(index: int, pts: float, sup: float, spread: float) -> CameraEstimate:
     """The "lost" estimate of a frame whose paint does not back its camera."""
     return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
@@ -481,6 +510,12 @@ class Tracker:
             est = CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, {k: v for k, v in est.info.items() if k != "kf"})
         else:
             est.info.pop("kf", None)
+        ramp = est.info.pop("ramp", None)
+        if ramp and est.camera is not None:
+            cam = est.camera
+            for w, step in ramp:
+                cam = step.apply(cam, w)
+            est = CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, est.info)
         return est
 
     # --- the per-frame logic ---------------------------------------------------------
@@ -1266,7 +1301,7 @@ class Tracker:
         if rc is not None:
             new = rc.camera.center
             self._centres = [(self.cfg.centre_sigma, new)]
-            return self._move_centre(index, new, rc)
+            return self._move_centre(index, new, rc, meas.camera)
         # (a measurement within centre_gain of all markings near a line pixel: none can beat it)
         best = self._free_pose_along_sight(meas, lidx, rf, want_k1) if meas.confidence + self.cfg.centre_gain <= 1.0 else rf
         if best.confidence >= max(self.cfg.centre_sure, meas.confidence + self.cfg.centre_gain) and np.linalg.norm(best.camera.center - self.centre) > self.cfg.centre_move:
@@ -1293,12 +1328,25 @@ class Tracker:
             if rc.confidence < meas.confidence - 0.05:
                 return meas
         self._centre_view, self._axis_tries = (lidx, meas.camera), 0  # (a view's own fix: along its axis again, should the view turn)
-        return self._move_centre(index, new, rc)
+        return self._move_centre(index, new, rc, meas.camera)
 
-    def _move_centre(self, index: int, new: np.ndarray, rc: Refinement) -> Refinement:
+    def _move_centre(self, index: int, new: np.ndarray, rc: Refinement, before: Camera) -> Refinement:
         """:meth:`_check_centre`'s move of the tripod centre to ``new``: the
         filter's angles set to ``rc`` (its camera about ``new``), its rates
-        kept and its angle variances widened. Returns ``rc``."""
+        kept and its angle variances widened. Returns ``rc``.
+
+        The frame's camera about the old centre (``before``) and about the new
+        one differ by a step in the picture (the correction the move makes).
+        Offline, the frames the smoother still holds take that step in equal
+        parts (:func:`_ramped`): the one ``n`` frames before this one by ``1 -
+        n / (lag + 1)`` of it, so the picture goes over in ``lag + 1`` steps,
+        not one."""
+        if self.lag:
+            step = _CameraStep.between(before, rc.camera)
+            for e in self._window:
+                n = index - e.frame
+                if e.camera is not None and 0 < n <= self.lag:
+                    e.info.setdefault("ramp", []).append((1.0 - n / (self.lag + 1), step))
         self.centre = new
         self.stats["centre_moves"] += 1
         kf = self._kf
@@ -1374,14 +1422,17 @@ class Tracker:
                 fits[s] = r
                 best_s = s
         best = fits[best_s]
-        if best.confidence < meas.confidence + 2 * self.cfg.centre_gain or (base is not None and best.confidence < base.confidence + self.cfg.centre_gain / 2) or abs(best_s) <= self.cfg.centre_move:
+        if (base is not None and best.confidence < base.confidence + self.cfg.centre_gain / 2) or abs(best_s) <= self.cfg.centre_move:
             return None
         joint = self._two_views(first, first_lidx, best.camera, lidx, want_k1)
-        if joint is not None:
-            a1 = self._about(first, first_lidx, best.camera.center)
+        moved = False
+        if joint is not None and np.linalg.norm(joint.camera.center - self.centre) > self.cfg.centre_move:
             b1 = self._about(first, first_lidx, joint.camera.center)
-            if b1 is not None and (a1 is None or b1.confidence + joint.confidence >= a1.confidence + best.confidence):
-                best = joint
+            f0 = self._about(first, first_lidx, self.centre)
+            if b1 is not None and f0 is not None and (joint.confidence - meas.confidence) + (b1.confidence - f0.confidence) > 0.0:
+                best, moved = joint, True
+        if not moved and best.confidence < meas.confidence + 2 * self.cfg.centre_gain:
+            return None
         self._centre_view = None  # (fixed by two views)
         self.stats["axis_moves"] += 1
         return best
