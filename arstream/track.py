@@ -1359,20 +1359,9 @@ class Tracker:
         return rc
 
     def _along_first_axis(self, meas: Refinement, lidx: LineIndex, want_k1: bool) -> Refinement | None:
-        """The measurement refined about centres along the optical axis of the
-        view the tripod centre was fixed in, once the view has turned from it by
-        ``axis_turn`` degrees (``axis_tries`` times a centre at most): its
-        refinement about the best of them (every ``axis_step`` metres up to
-        ``axis_span`` either way, then half a step either side of the best)
-        when it lays ``2 centre_gain`` more of the markings in view near a
-        line pixel than the measurement, and ``centre_gain / 2`` more than the
-        same search about the centre itself (the measurement can have
-        stopped short), from a centre more than ``centre_move`` away; else
-        None. (With ``centre_gain`` over the measurement it also moved the
-        full-size clip's centre twice, at frames 104 and 143, each a step of
-        15-20 px in the picture: the jitter proxy over frames 88-403 went
-        from 1.21 to 2.13 px, its reference frames 12 of 13 within 5 px
-        either way.)
+        """The measurement refined about a centre that two views triangulate,
+        or None: once the view has turned ``axis_turn`` degrees from the one
+        the tripod centre was fixed in (``axis_tries`` times a centre at most).
 
         A view of the centre circle from far away fixes the centre only along
         its line of sight (the focal length and the distance trade), and the
@@ -1380,22 +1369,36 @@ class Tracker:
         ``israel_league_wide`` softened (a 1.2 px blur) from frame 60 on, the
         centre was frozen 7 m too far out, and after the pan to the penalty
         area every frame was drawn 40-60 px off at a line support of about
-        0.6. The centre lies near that axis; a view that has turned from it
-        sees the axis across its own line of sight, and fixes the point on it:
-        the two views triangulate the centre.
+        0.6. The centre lies near that view's axis; a view turned from it sees
+        the axis across its own line of sight.
 
-        The grid finds the basin; the point on the axis it picks can be a
-        metre or two off (its 2 m steps, and the turned view alone is flat
-        along its own line of sight): a later free pose that would have found
-        the centre then no longer moves it. So both views are then fitted
-        jointly about one centre, started there (:meth:`_two_views`,
-        :func:`arstream.tripod.fit_tripod`), and that centre is kept when the
-        two views together lay at least as many of their markings near a line
-        pixel about it as about the grid's point (each view refined about the
-        centre, shares added). On the 720p crf 28 copy of the clip from frame
-        60 the grid's point was (21.6, -58.0, 8.9) m, the joint fit's (24.6,
-        -61.4, 9.6), where the full-size run's centre is (24.8, -61.4,
-        9.7)."""
+        * *The basin.* The measurement is refined about centres along the
+          first view's axis (every ``axis_step`` metres up to ``axis_span``
+          either way, then half a step either side of the best); the best
+          must lay ``centre_gain / 2`` more of the markings in view near a
+          line pixel than the same search about the centre itself (the
+          measurement can have stopped short), from more than
+          ``centre_move`` away.
+        * *The point.* The grid's point can be a metre or two off (its 2 m
+          steps, and the turned view alone is flat along its own line of
+          sight), and a later free pose then no longer moves it. Both views
+          are fitted jointly about one centre started there
+          (:meth:`_two_views`, :func:`arstream.tripod.fit_tripod`), and the
+          tracker goes there when that centre is more than ``centre_move``
+          away and the two views together lay more of their markings near a
+          line pixel about it than about the centre itself (the turned
+          view's refinement against the measurement, plus the first view's
+          refinements about the two centres). On the 720p crf 28 copy of the
+          clip from frame 60 the grid's point was (21.6, -58.0, 8.9) m, the
+          joint fit's (24.6, -61.4, 9.6), the full-size run's centre (24.8,
+          -61.4, 9.7).
+        * Else the grid's point, when it lays ``2 centre_gain`` more of the
+          markings near a line pixel than the measurement. (The grid's point
+          with ``centre_gain`` moved the full-size clip's centre twice, steps
+          of 15-20 px in the picture. The joint centre moves it at frame 104,
+          and a later check at 144, where before the checks moved it at 114,
+          154 and 364: its reference frames 12 -> 13 of 13 within 5 px.)
+        """
         if self._centre_view is None or self._axis_tries >= self.cfg.axis_tries:
             return None
         first_lidx, first = self._centre_view

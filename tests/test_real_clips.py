@@ -83,12 +83,13 @@ def test_israel_league_wide(tmp_path):
     # target 1 px: not met, held to today's level. Frames 76-86 are a whip pan
     # whose own image motion changes by up to 28 px a frame (phase correlation
     # of consecutive frames): the proxy of the true cameras is about 2.5 px over
-    # the clip (2.44 px today). After it (frames 88-403, tracked before too):
-    # 1.10 px on 2026-11-27
-    assert score.jitter_1280 <= 3.0, score
+    # the clip (2.31 px on 2026-11-29, 2.39 before a centre move's step was
+    # spread over the smoother's window). After it (frames 88-403, tracked
+    # before too): 1.03 px on 2026-11-29 (1.21 before)
+    assert score.jitter_1280 <= 2.7, score
     records = [json.loads(line) for line in (tmp_path / "israel_league_wide.jsonl").read_text().splitlines()]
     cams = [None if r.get("K") is None else Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ())) for r in records[88:]]
-    assert jitter_proxy(cams, (1280, 720)).rms <= 1.5
+    assert jitter_proxy(cams, (1280, 720)).rms <= 1.3
 
 
 def test_israel_league_wide_at_480p(tmp_path):

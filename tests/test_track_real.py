@@ -294,3 +294,55 @@ def test_a_centre_fixed_along_a_centre_circle_views_axis_is_found_from_a_turned_
     pts = pitch.sample_points(0.5)
     assert frame_error(cam, out.camera, SIZE, pts, pitch.symmetries).mean < 0.5 * frame_error(cam, meas.camera, SIZE, pts, pitch.symmetries).mean
     assert np.allclose(tr._kf.x[0::2, 0], _ptz_vector(out.camera, tr.centre), atol=1e-9)
+
+
+def test_a_camera_step_goes_from_one_camera_to_the_other():
+    from arstream.track import _CameraStep
+
+    a = looking_at((-5.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 2.0 * SIZE[0], SIZE)
+    b = looking_at((-4.0, -58.5, 13.6), (-19.0, 4.0, 0.0), 2.1 * SIZE[0], SIZE)
+    step = _CameraStep.between(a, b)
+    X = np.array([[x, y, 0.0] for x in (-40.0, -20.0, 0.0) for y in (-20.0, 0.0, 20.0)])
+    # (the arithmetic's floor: a rotation through Rodrigues and back, 1e-9 px)
+    assert np.abs(step.apply(a, 1.0).project(X) - b.project(X)).max() < 1e-6
+    assert np.abs(step.apply(a, 0.0).project(X) - a.project(X)).max() < 1e-9
+    half = step.apply(a, 0.5)
+    assert np.allclose(half.center, (a.center + b.center) / 2)
+    assert np.isclose(half.focal, np.sqrt(a.focal * b.focal))
+    # two halves make the whole step
+    assert np.abs(step.apply(half, 0.5).project(X) - b.project(X)).max() < 1e-6
+
+
+def test_a_centre_moves_step_is_spread_over_the_held_frames():
+    from arstream.estimate import CameraEstimate
+    from arstream.solve import Refinement
+    from arstream.track import _CameraStep, _ptz_vector
+
+    # offline, four frames held by the smoother, panning about the old centre;
+    # at frame 5 the centre moves (a check found a better one) and the frame's
+    # camera about it differs from the one about the old centre by a step
+    old = np.array([-5.0, -60.0, 14.0])
+    held = [looking_at(old, (-20.0 + k, 5.0, 0.0), 2.0 * SIZE[0], SIZE) for k in range(1, 5)]
+    before = looking_at(old, (-15.0, 5.0, 0.0), 2.0 * SIZE[0], SIZE)
+    after = looking_at(old + np.array([0.8, 2.0, -0.4]), (-15.5, 5.2, 0.0), 2.05 * SIZE[0], SIZE)
+    tr = Tracker(*SIZE, lag=4)
+    tr.centre = old.copy()
+    tr._kf = tr._new_filter(_ptz_vector(before, old), np.eye(4) * 1e-6)
+    for k, cam in enumerate(held, start=1):
+        tr._window.append(CameraEstimate(k, k / 25, "ok", cam, 0.9, {}))
+    rc = Refinement(after, 0.9, 0.5, 400, 380, np.eye(7), ("pan", "tilt", "roll", "f", "cx", "cy", "cz"))
+    assert tr._move_centre(5, after.center, rc, before) is rc
+    out = tr.flush()
+    step = _CameraStep.between(before, after)
+    X = np.array([[x, y, 0.0] for x in (-30.0, -15.0, 0.0) for y in (-10.0, 5.0, 20.0)])
+    assert [e.frame for e in out] == [1, 2, 3, 4]
+    for e, cam in zip(out, held):
+        # frame k takes k / 5 of the step: frame 5 is the whole of it
+        want = step.apply(cam, e.frame / 5)
+        assert np.abs(e.camera.project(X) - want.project(X)).max() < 1e-9, e.frame
+    # live (no lag) nothing is held
+    live = Tracker(*SIZE)
+    live.centre = old.copy()
+    live._kf = live._new_filter(_ptz_vector(before, old), np.eye(4) * 1e-6)
+    live._move_centre(5, after.center, rc, before)
+    assert np.allclose(live.centre, after.center)
