@@ -141,8 +141,12 @@ def fit_tripod(
     Raises
     ------
     ValueError
-        Too few model samples matched to the views' paint.
+        No views, a line index or frame size missing for a view, a free size
+        without its derivatives, or too few model samples matched to the
+        views' paint.
     """
+    if not cameras or len(line_index) != len(cameras) or len(sizes) != len(cameras):
+        raise ValueError(f"one line index and one frame size per view: {len(cameras)} views, {len(line_index)} line indices, {len(sizes)} sizes")
     if any(free) and derivatives is None:
         raise ValueError("a free length or width needs the samples' size derivatives")
     dL0, dW0 = derivatives if derivatives is not None else (np.zeros_like(model.points), np.zeros_like(model.points))

@@ -58,6 +58,10 @@ def test_a_fit_is_refused_with_a_clear_error():
     paint = _paint(FIRST)
     with pytest.raises(ValueError, match="a free length or width needs the samples' size derivatives"):
         fit_tripod([FIRST], [paint], [SIZE], MODEL, TRUTH, PITCH, free=(True, False))
+    with pytest.raises(ValueError, match="one line index and one frame size per view: 0 views, 0 line indices, 0 sizes"):
+        fit_tripod([], [], [], MODEL, TRUTH, PITCH)
+    with pytest.raises(ValueError, match="one line index and one frame size per view: 2 views, 1 line indices, 2 sizes"):
+        fit_tripod([FIRST, TURNED], [paint], [SIZE, SIZE], MODEL, TRUTH, PITCH)
     # paint that is nowhere near the markings in view
     nowhere = LineIndex(np.array([[5.0, 5.0], [6.0, 5.0]]))
     with pytest.raises(ValueError, match="too few marking points matched to the views' paint"):
