@@ -59,7 +59,7 @@ from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, ini
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
 from arstream.support import ON_LINES, backed_support, backs, on_lines, white_mask
-from geometry.camera import PTZ, Camera, camera_from_ptz, ptr_from_rotation
+from geometry.camera import PTZ, Camera, camera_from_ptz, camera_turned, ptr_from_rotation
 from geometry.pitch import PitchModel
 
 __all__ = ["Tracker", "TrackerConfig"]
@@ -240,14 +240,7 @@ class _CameraStep:
         """``cam`` moved by the share ``w`` (0-1) of the step: centre, rotation
         (about the pitch frame's axes) and log focal length alike; its lens
         terms kept."""
-        R = cv2.Rodrigues(w * self.dr.reshape(3, 1))[0] @ cam.R
-        K = cam.K.copy()
-        s = float(np.exp(w * self.dlogf))
-        K[0, 0] *= s
-        K[1, 1] *= s
-        K[0, 1] *= s
-        C = cam.center + w * self.dC
-        return Camera.trusted(K, R, -R @ C, cam.dist)
+        return camera_turned(cam, w * self.dr, w * self.dlogf, cam.center + w * self.dC)
 
 
 def _unsupported(index: int, pts: float, sup: float, spread: float) -> CameraEstimate:
@@ -1338,7 +1331,7 @@ class Tracker:
         The frame's camera about the old centre (``before``) and about the new
         one differ by a step in the picture (the correction the move makes).
         Offline, the frames the smoother still holds take that step in equal
-        parts (:func:`_ramped`): the one ``n`` frames before this one by ``1 -
+        parts (:class:`_CameraStep`, applied by :meth:`_smooth_pop`): the one ``n`` frames before this one by ``1 -
         n / (lag + 1)`` of it, so the picture goes over in ``lag + 1`` steps,
         not one."""
         if self.lag:

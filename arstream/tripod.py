@@ -18,14 +18,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
 from arstream.solve import ModelSamples
 from arstream.solve_kernels import project_points
-from geometry.camera import Camera
+from geometry.camera import Camera, camera_turned
 from geometry.pitch import PitchModel
 
 __all__ = ["TripodFit", "fit_tripod"]
@@ -70,17 +69,12 @@ class _Matches:
     marking: np.ndarray
 
 
-def _camera(view: Camera, R0: np.ndarray, w: np.ndarray, logf0: float, logf: float, C: np.ndarray, kappa: float | None) -> Camera:
-    """``view``'s camera turned by ``w`` (rad, about the camera's axes) from ``R0``,
-    its focal length ``exp(logf)``, centre ``C``; radial ``k1 = kappa / f`` (None: its own)."""
-    R = cv2.Rodrigues(np.asarray(w, np.float64).reshape(3, 1))[0] @ R0
-    K = view.K.copy()
-    s = np.exp(logf - logf0)
-    K[0, 0] *= s
-    K[1, 1] *= s
-    K[0, 1] *= s
-    dist = view.dist if kappa is None else (float(kappa) / K[0, 0],)
-    return Camera.trusted(K, R, -R @ C, dist)
+def _camera(view: Camera, w: np.ndarray, logf0: float, logf: float, C: np.ndarray, kappa: float | None) -> Camera:
+    """``view``'s camera turned by ``w`` (rad, about the pitch frame's axes),
+    its focal length ``exp(logf)`` (``view``'s is ``exp(logf0)``), centre
+    ``C``; radial ``k1 = kappa / f`` (None: its own)."""
+    cam = camera_turned(view, w, logf - logf0, C)
+    return cam if kappa is None else Camera.trusted(cam.K, cam.R, cam.t, (float(kappa) / cam.K[0, 0],))
 
 
 def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
@@ -154,7 +148,6 @@ def fit_tripod(
     C0 = np.asarray(centre, np.float64)
     indices = list(range(len(cameras)))
     nv = len(indices)
-    R0 = [cameras[i].R for i in indices]
     f0 = [np.log(cameras[i].focal) for i in indices]
     nfree = int(free[0]) + int(free[1])
     # a zoom lens's k1 goes as 1 / f: one k1 f for all views, when they have a lens term
@@ -182,7 +175,7 @@ def fit_tripod(
 
     def cams(x):
         C, _, _, kappa = unpack(x)
-        return [_camera(cameras[i], R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
+        return [_camera(cameras[i], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
 
     matches = None
     res = None
@@ -213,7 +206,7 @@ def fit_tripod(
             C, L, W, kappa = unpack(x)
             out = []
             for j, m in enumerate(matches):
-                cam = _camera(cameras[indices[j]], R0[j], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
+                cam = _camera(cameras[indices[j]], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
                 p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), sizes[indices[j]])
                 r = np.einsum("ij,ij->i", m.n, p - m.q)
                 out.append(np.where(np.isfinite(r), r, 50.0))

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+from scipy.spatial.transform import Rotation
 
 from geometry.conics import normalize_conic
 
@@ -40,6 +41,7 @@ __all__ = [
     "P_from_KRt",
     "KRt_from_P",
     "camera_from_homography",
+    "camera_turned",
     "camera_near_homography",
     "camera_at_centre",
     "HomographyPoses",
@@ -505,6 +507,21 @@ def camera_near_homography(H_img_from_pitch, principal_point, XY, *, aspect: flo
     if not (np.all(np.isfinite(sol.x)) and sol.cost <= 0.5 * float(r0 @ r0)):
         return cam0
     return camera(sol.x)
+
+
+def camera_turned(camera: Camera, rotvec, dlogf: float, center, dist: tuple | None = None) -> Camera:
+    """``camera`` turned by the rotation vector ``rotvec`` (3,) about the pitch
+    frame's axes (``R' = exp(rotvec) R``), zoomed by ``exp(dlogf)`` (its
+    focal lengths and skew scaled, the principal point kept) and placed at
+    ``center`` (3,) metres; lens terms ``dist`` (None: the camera's own)."""
+    R = Rotation.from_rotvec(np.asarray(rotvec, np.float64).reshape(3)).as_matrix() @ camera.R
+    K = camera.K.copy()
+    s = math.exp(dlogf)
+    K[0, 0] *= s
+    K[1, 1] *= s
+    K[0, 1] *= s
+    C = np.asarray(center, np.float64)
+    return Camera.trusted(K, R, -R @ C, camera.dist if dist is None else tuple(dist))
 
 
 def camera_at_centre(camera: Camera, center, XY) -> Camera:
