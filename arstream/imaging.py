@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["THUMBNAIL_SIZE", "BAR_LEVEL", "MIN_BAR", "active_area", "grey_thumbnail", "sample_bilinear", "scale_to", "shrink"]
+__all__ = ["THUMBNAIL_SIZE", "BAR_LEVEL", "MIN_BAR", "active_area", "grey_thumbnail", "pooled", "sample_bilinear", "scale_to", "shrink"]
 
 #: (w, h) of :func:`grey_thumbnail` (at most: smaller images keep their size)
 THUMBNAIL_SIZE = (64, 36)
@@ -50,6 +50,31 @@ def shrink(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None
         img = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
         return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_LINEAR)
     return cv2.resize(img, (w, h), dst=dst, interpolation=cv2.INTER_AREA)
+
+
+def pooled(mask: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """A binary mask made smaller by max-pooling: an output pixel is set where
+    any input pixel under it is (a painted line one pixel wide stays whole,
+    where averaging the picture would fade it into the grass).
+
+    Parameters
+    ----------
+    mask : (H, W) bool or uint8 (non-zero: set)
+    size : (w, h), each at most the mask's
+
+    Returns
+    -------
+    (h, w) of the mask's dtype: uint8 0 / 255, or bool. Output pixel ``u``
+    covers input pixels ``s u`` to ``s (u + 1)``, ``s`` the scale (centres
+    aligned as in :func:`shrink`).
+    """
+    w, h = int(size[0]), int(size[1])
+    H, W = mask.shape[:2]
+    if w > W or h > H or w < 1 or h < 1:
+        raise ValueError(f"pooled: target {w}x{h} must be between 1x1 and the mask's {W}x{H}")
+    m = mask.view(np.uint8) * np.uint8(255) if mask.dtype == bool else mask  # (1 / 4 of a 1 would round to 0)
+    out = cv2.compare(cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA), 0, cv2.CMP_GT)
+    return out > 0 if mask.dtype == bool else out
 
 
 def scale_to(src: np.ndarray, size: tuple[int, int], dst: np.ndarray | None = None) -> np.ndarray:

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from arstream.imaging import shrink
+from arstream.imaging import pooled, shrink
 
 
 def test_exact_halving_is_area_resampling():
@@ -124,3 +124,32 @@ def test_active_area_bad_input():
 
     with pytest.raises(ValueError, match=r"image must be a non-empty uint8 array \(H, W\) or \(H, W, 3\), got float32 \(9, 16, 3\)"):
         active_area(np.zeros((9, 16, 3), np.float32))
+
+
+def test_pooled_keeps_a_one_pixel_line_whole():
+    # a line one pixel wide at 1280 x 720, on odd and even rows and columns:
+    # max-pooled to 640 x 360 it is set on every analysis pixel it crosses,
+    # where averaging the picture down halves its contrast
+    for dtype in (np.uint8, bool):
+        m = np.zeros((720, 1280), np.uint8)
+        m[301, :] = 255  # a row (odd)
+        m[:, 640] = 255  # a column (even)
+        m[100:103, 1001] = 255
+        if dtype is bool:
+            m = m > 0
+        p = pooled(m, (640, 360))
+        assert p.dtype == m.dtype and p.shape == (360, 640)
+        on = p > 0
+        assert on[150].all() and on[:, 320].all()  # (301 -> 150, 640 -> 320)
+        assert on[50:52, 500].all() and not on[52, 500] and not on[49, 500]
+        assert on.sum() == 640 + 360 - 1 + 2 - 0  # nothing else set (the crossing counted once)
+    # a factor that is not whole: an output pixel covering part of a set pixel is set
+    m = np.zeros((576, 1024), np.uint8)
+    m[:, 513] = 255
+    assert np.array_equal(np.nonzero(pooled(m, (640, 360))[0])[0], [320, 321])
+
+
+@pytest.mark.parametrize("size", [(1281, 720), (640, 0), (0, 360)])
+def test_pooled_only_shrinks(size):
+    with pytest.raises(ValueError, match="pooled: target"):
+        pooled(np.zeros((720, 1280), np.uint8), size)
