@@ -97,3 +97,34 @@ def test_the_x264_probe_leaves_pyavs_logging_as_it_was(level):
         assert av.logging.get_level() == (None if level is None else getattr(av.logging, level))
     finally:
         av.logging.set_level(before)
+
+
+def test_reference_distances_judge_the_copys_reference_frames():
+    # the copy's cameras are the reference cameras themselves, scaled to its
+    # size as the benchmark scales them back: distance 0 up to the
+    # arithmetic; a frame without a camera is inf; a copy from frame 120
+    # holds only the reference frames from 120 on
+    from geometry.camera import Camera
+    from real_footage import references
+    from real_perturbed import reference_distances
+
+    refs = references("israel_league_wide")
+    if not refs:
+        pytest.skip("no reference cameras")
+    size = (854, 480)
+    sx, sy = size[0] / 1280, size[1] / 720
+    start, n = 120, 404 - 120
+    got = [None] * n
+    for k, (ref, _) in refs.items():
+        if k >= start:
+            got[k - start] = Camera(K=np.diag([sx, sy, 1.0]) @ ref.K, R=ref.R, t=ref.t, dist=ref.dist)
+    d = reference_distances("israel_league_wide", got, size, start)
+    assert len(d) == sum(k >= start for k in refs) == 12
+    assert np.all(d < 1e-6), d
+    got[125 - start] = None
+    d = reference_distances("israel_league_wide", got, size, start)
+    assert d[0] == np.inf and np.all(d[1:] < 1e-6)
+    # a camera whose picture is shifted 4 px (@1280) sideways is 4 px off
+    c = got[150 - start]
+    got[150 - start] = Camera(K=np.array([[1.0, 0.0, 4.0 * sx], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) @ c.K, R=c.R, t=c.t)
+    assert reference_distances("israel_league_wide", got, size, start)[1] == pytest.approx(4.0, abs=1e-6)
