@@ -103,6 +103,7 @@ class TrackerConfig:
     sweep_peak: float = 1.2  # its support over the best support half the range away
     sweep_fine: float = 0.04  # then the pan by brightness along the markings: +- this share of the width
     paint_every: int = 4  # while lost, the paint initialiser (real frames) runs at most every this many frames
+    rival_every: int = 1  # ... and checks a fresh camera from the detector's lines (Tracker._paint_rival) at most every this many frames
     paint_accept: float = 0.7  # least line support of a camera from the paint initialiser
     min_support: float = 0.6  # least line support (docs/evaluate.md) of a camera that is output (and drawn) ...
     min_trusted: float = 0.55  # ... or this much within max_coast frames of one that had it (blur hides paint; above the output test's 0.5 by the tracker's sampling of it)
@@ -617,7 +618,7 @@ class Tracker:
         rival = None  # the paint initialiser's (refinement, support), when it beat the detector's camera
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
-            if r is not None and r.confidence >= self.cfg.init_accept and image is not None:
+            if r is not None and r.confidence >= self.cfg.init_accept and image is not None and index - self._paint_at >= self.cfg.rival_every:
                 view = view or self._paint_view(index, image, det)
                 rival = self._paint_rival(index, r, view, det)
                 if rival is not None:

@@ -71,6 +71,26 @@ def test_artificial_turf_with_its_pitch_size(tmp_path):
     assert score.jitter_1280 <= 1.0, score  # (0.96 px on 2026-11-27)
 
 
+def test_artificial_turf_with_no_pitch_size(tmp_path):
+    # the same clip with its size unknown: its markings fit 105 x 68 poorly,
+    # the scan finds 100 x 68 by line support, and the second run estimates
+    # the size from there (the pitch is 99.85 x 67.72 m by the references;
+    # 100.1 +- 0.2 x 66.3 +- 0.4 on 2026-11-29); judged at the size it found
+    out = tmp_path / "turf.jsonl"
+    clip = SHARED / "clips" / "artificial_turf_multisport.mp4"
+    s = process(clip, cameras_out=out, handle_signals=False)
+    scan = s.pitch["scan"]
+    assert scan["sizes"][scan["chosen"]] == [100.0, 68.0], s.pitch_text
+    assert s.pitch["source"] == "estimated" and 99.0 <= s.pitch["length"] <= 101.0 and 65.0 <= s.pitch["width"] <= 69.5, s.pitch_text
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    score = evaluate_video(clip, records, pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
+    assert score.coverage >= 0.95 and score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
+    assert score.drawn_below_0_5 == 0, score
+    by_frame = {r["frame"]: r for r in records}
+    dist = [_distance_1280(ref, Camera.from_dict(by_frame[k]), (1280, 720), ref_pitch) if by_frame[k].get("K") else np.inf for k, (ref, ref_pitch) in _references("artificial_turf_multisport").items()]
+    assert len(dist) == 8 and np.mean([d <= 5.0 for d in dist]) >= 0.9, dist
+
+
 def test_israel_league_wide(tmp_path):
     s, score, dist = _run(tmp_path, "israel_league_wide")
     assert s.frames == 404

@@ -32,8 +32,9 @@ SCAN_MAX_FRAMES = 750
 
 #: while a scan's tracker is lost, it runs the paint initialiser (0.5-4 s a
 #: call) once in this many seconds of video (the tracker's own default is
-#: every 4 frames): a size that loses the camera is the wrong one, and the
-#: scan's cost is its initialisations
+#: every 4 frames), and checks a fresh camera from the detector's lines
+#: against it as rarely (the tracker's own: each one): a size that loses the
+#: camera is the wrong one, and the scan's cost is its initialisations
 SCAN_PAINT_SECONDS = 1.0
 
 
@@ -76,7 +77,8 @@ class SizeScanStage(Stage):
         from geometry.pitch import PitchModel
 
         self.analysis = analysis
-        cfg = TrackerConfig(paint_every=max(1, round(fps * SCAN_PAINT_SECONDS)))
+        every = max(1, round(fps * SCAN_PAINT_SECONDS))
+        cfg = TrackerConfig(paint_every=every, rival_every=every)
         self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg) for L, W in sizes]
         self.points = [marking_points(t.pitch) for t in self.trackers]
         #: per size, each frame's line support (docs/evaluate.md, on the frame at
