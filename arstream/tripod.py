@@ -73,8 +73,8 @@ def _camera(view: Camera, w: np.ndarray, logf0: float, logf: float, C: np.ndarra
     """``view``'s camera turned by ``w`` (rad, about the pitch frame's axes),
     its focal length ``exp(logf)`` (``view``'s is ``exp(logf0)``), centre
     ``C``; radial ``k1 = kappa / f`` (None: its own)."""
-    cam = camera_turned(view, w, logf - logf0, C)
-    return cam if kappa is None else Camera.trusted(cam.K, cam.R, cam.t, (float(kappa) / cam.K[0, 0],))
+    d = logf - logf0
+    return camera_turned(view, w, d, C, None if kappa is None else (float(kappa) / (view.K[0, 0] * np.exp(d)),))
 
 
 def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:

@@ -167,19 +167,22 @@ def _cameras(records: list[dict]) -> list[Camera | None]:
     return [None if r.get("K") is None else Camera.from_dict(r) for r in records]
 
 
+def _at_1280(cam: Camera, size: tuple[int, int]) -> Camera:
+    """``cam`` (a camera of a ``size`` copy) as a camera of the 1280 x 720 frame."""
+    return Camera(K=np.diag([1280.0 / size[0], 720.0 / size[1], 1.0]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
+
+
 def reference_distances(name: str, got: list[Camera | None], size: tuple[int, int], start: int = 0) -> np.ndarray:
     """(R,) distance (px @1280) of each reference camera of the shared clip
     ``name`` (tests/data/real_reference, made independently of the product)
     to ``got``'s camera of the same frame (cameras of a ``size`` copy of the
     clip from frame ``start``): inf where the copy has none. Only the
     reference frames the copy holds count."""
-    S = np.diag([1280.0 / size[0], 720.0 / size[1], 1.0])
     out = []
     for k, (ref, pitch) in sorted(references(name).items()):
         j = k - start
         if 0 <= j < len(got):
-            b = got[j]
-            out.append(np.inf if b is None else distance_1280(ref, Camera(K=S @ b.K, R=b.R, t=b.t, dist=b.dist), (1280, 720), pitch))
+            out.append(np.inf if got[j] is None else distance_1280(ref, _at_1280(got[j], size), (1280, 720), pitch))
     return np.array(out)
 
 
@@ -187,12 +190,11 @@ def distances(truth: list[Camera | None], got: list[Camera | None], size: tuple[
     """(N,) per-frame distance (px @1280) of ``got`` (cameras of a ``size``
     frame) to ``truth`` (cameras of the 1280 x 720 full-size frame); NaN where
     either has none."""
-    S = np.diag([1280.0 / size[0], 720.0 / size[1], 1.0])
     d = np.full(min(len(truth), len(got)), np.nan)
     for k in range(len(d)):
         a, b = truth[k], got[k]
         if a is not None and b is not None:
-            d[k] = distance_1280(a, Camera(K=S @ b.K, R=b.R, t=b.t, dist=b.dist), (1280, 720), pitch)
+            d[k] = distance_1280(a, _at_1280(b, size), (1280, 720), pitch)
     return d
 
 
