@@ -6,12 +6,14 @@ ground-truth-free figures of ``arstream eval --video`` (coverage, line support,
 share of frames at >= 0.7, frames drawn below 0.5, jitter proxy); for every
 item, the mean distance to the reference cameras (tests/data/real_reference,
 made independently by bench/reference_cameras.py) over the markings in view,
-in pixels of a 1280-wide frame, and the speed. Prints Markdown tables and
-writes contact sheets of overlays (``--sheets DIR``).
+in pixels of a 1280-wide frame, and the speed; and each clip's run against
+every N-th frame of the clip registered as a still (``--still-every N``,
+:func:`still_agreement`: the frames without a reference camera). Prints
+Markdown tables and writes contact sheets of overlays (``--sheets DIR``).
 
 Usage::
 
-    python bench/real_footage.py [--sheets DIR] [--clips NAME ...] [--pitch NAME=LxW ...]
+    python bench/real_footage.py [--sheets DIR] [--clips NAME ...] [--pitch NAME=LxW ...] [--still-every N]
 
 The material is read from ``../shared/data/real-broadcast`` (skipped with a
 message where it is absent).
@@ -45,6 +47,9 @@ REFERENCE = ROOT / "tests" / "data" / "real_reference"
 STILLS = ["ucl_2009", "world_cup_2006", "world_cup_2018"]
 CLIPS = ["israel_league_wide", "artificial_turf_multisport"]
 EPL_ASPECT = 16 / 9
+#: the least line support (the issue's, on the frame at its own size) of a
+#: still's camera that a clip's run is checked against (:func:`still_agreement`)
+STILL_BACKED = 0.95
 
 
 def references(item: str) -> dict[int, tuple[Camera, PitchModel]]:
@@ -128,7 +133,54 @@ def clip_frame_rows(clips, pitches: dict) -> list[dict]:
     return rows
 
 
-def clip_rows(clips, pitches: dict, sheets: Path | None) -> list[dict]:
+def still_agreement(path: Path, recs: list[dict], every: int, pitch: PitchModel) -> dict:
+    """The clip's run against its own frames registered as stills.
+
+    The reference cameras sit on every 25th frame from frame 100 of
+    ``israel_league_wide`` (none on its opening long-lens view). ``arstream
+    register`` works on the frame at its own resolution, where a far line
+    one or two pixels wide is still a line; the tracker works on the frame
+    scaled down. Every ``every``-th frame is registered as a still (at the
+    run's ``pitch``), and where the frame's paint backs the still's camera
+    clearly (line support, DESIGN.md 5b, at least :data:`STILL_BACKED`)
+    the run's camera (``recs``, cameras.jsonl records) is compared with it:
+    two cameras more than 5 px apart (mean over the markings in view, px of
+    a 1280-wide frame) cannot both be right, and the still's is the one the
+    paint backs more. A ground-truth-free check for the frames that have no
+    reference; it costs a still's registration (1-3 s) a frame checked.
+
+    Returns
+    -------
+    dict: ``checked`` (frames whose still camera is backed), ``agree``
+    (of those, the run's camera within 5 px), ``off`` (frame, px) of the
+    others (inf: the run has no camera there)
+    """
+    import av
+
+    checked, agree, off = 0, 0, []
+    with av.open(str(path)) as c:
+        for k, frame in enumerate(c.decode(video=0)):
+            if k % every or k >= len(recs):
+                continue
+            img = frame.to_ndarray(format="bgr24")
+            _, cam = _register(img, pitch=pitch)
+            if cam is None:
+                continue
+            size = (img.shape[1], img.shape[0])
+            sup = line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points(pitch)).share
+            if sup is None or sup < STILL_BACKED:
+                continue
+            checked += 1
+            run = None if recs[k].get("K") is None else Camera.from_dict(recs[k])
+            d = float("inf") if run is None else distance_1280(cam, run, size, pitch)
+            if d <= 5.0:
+                agree += 1
+            else:
+                off.append((k, d))
+    return {"checked": checked, "agree": agree, "off": off}
+
+
+def clip_rows(clips, pitches: dict, sheets: Path | None, still_every: int = 0) -> list[dict]:
     rows = []
     for name in clips:
         path = SHARED / "clips" / f"{name}.mp4"
@@ -164,6 +216,7 @@ def clip_rows(clips, pitches: dict, sheets: Path | None) -> list[dict]:
                     "reference_frames": len(dists),
                     "within_5px": (sum(d <= 5.0 for d in dists) / len(dists)) if dists else None,
                     "fps": summary.frames / seconds,
+                    "stills": still_agreement(path, recs, still_every, PitchModel(used["length"], used["width"])) if still_every else None,
                 }
             )
             if sheets is not None and (draw / "contact_sheet.png").exists():
@@ -203,6 +256,7 @@ def main(argv=None) -> int:
     ap.add_argument("--clips", nargs="*", default=CLIPS, help="clips to process (default: both)")
     ap.add_argument("--pitch", action="append", default=[], metavar="NAME=LxW", help="a clip's pitch size (repeatable)")
     ap.add_argument("--no-stills", action="store_true")
+    ap.add_argument("--still-every", type=int, default=10, metavar="N", help="check each clip's run against every N-th frame registered as a still (0: not; default 10)")
     args = ap.parse_args(argv)
     if not SHARED.is_dir():
         print(f"skipped: {SHARED} is absent")
@@ -225,13 +279,22 @@ def main(argv=None) -> int:
     print()
     print("| clip | frames | coverage | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | reference frames within 5 px | fps |")
     print("|---|---|---|---|---|---|---|---|---|")
+    stills = []
     for name, pitch in runs:
-        for r in clip_rows([name], {name: pitch} if pitch else {}, args.sheets):
+        for r in clip_rows([name], {name: pitch} if pitch else {}, args.sheets, args.still_every):
             print(
                 f"| {r['item']} | {r['frames']} | {_fmt(r['coverage'], True)} | {_fmt(r['support_median'])} | {_fmt(r['share_at_0_7'], True)} | "
                 f"{_fmt(r['drawn_below_0_5'], True)} | {_fmt(r['jitter_1280'])} | {_fmt(r['within_5px'], True)} of {r['reference_frames']} | {r['fps']:.1f} |",
                 flush=True,
             )
+            stills.append(r)
+    if args.still_every:
+        print()
+        print(f"| clip | every {args.still_every}th frame as a still: backed (line support >= {STILL_BACKED}) | the run within 5 px of it | the run further (frame: px @1280) |")
+        print("|---|---|---|---|")
+        for r in stills:
+            a = r["stills"]
+            print(f"| {r['item']} | {a['checked']} | {a['agree']} | {', '.join(f'{k}: {d:.1f}' for k, d in a['off']) or 'none'} |", flush=True)
     return 0
 
 

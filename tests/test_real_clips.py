@@ -337,3 +337,22 @@ def test_premier_league_sequence_tracked(tmp_path):
         # in pixels of the frame shown 16:9 (910 x 512), then of a 1280-wide one
         d = _distance_1280(ref, got, (round(512 * a), 512), pitch)
         assert d <= 5.0, (frame, d)
+
+
+def test_still_agreement_flags_a_run_off_its_frames_as_stills():
+    """bench/real_footage.py's check of a run against its frames registered as
+    stills: a frame's own reference camera agrees with the still, another
+    frame's camera and no camera do not (israel_league_wide every 100th
+    frame; the stills there register at a line support of 0.95 or more)."""
+    from real_footage import references, still_agreement
+
+    refs = references("israel_league_wide")
+    recs = [{"frame": k, "K": None} for k in range(404)]
+    recs[200] = refs[200][0].to_dict()
+    recs[300] = refs[275][0].to_dict()  # (a camera 25 frames off: the pan moved the picture)
+    got = still_agreement(SHARED / "clips" / "israel_league_wide.mp4", recs, 100, PitchModel())
+    off = dict(got["off"])
+    assert got["checked"] == got["agree"] + len(off)
+    assert 200 not in off and got["agree"] >= 1
+    assert 5.0 < off[300] < float("inf")
+    assert off[400] == float("inf")
