@@ -258,6 +258,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-stills", action="store_true")
     ap.add_argument("--still-every", type=int, default=10, metavar="N", help="check each clip's run against every N-th frame registered as a still (0: not; default 10)")
     args = ap.parse_args(argv)
+    if args.still_every < 0:
+        ap.error(f"--still-every must be 0 or more, got {args.still_every}")
     if not SHARED.is_dir():
         print(f"skipped: {SHARED} is absent")
         return 0
