@@ -83,7 +83,7 @@ def still_rows(sheets: Path | None) -> list[dict]:
         t0 = time.perf_counter()
         est, cam = _register(img, aspect)
         seconds = time.perf_counter() - t0
-        sup = None if cam is None else line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share
+        sup = None if cam is None else frame_support(img, cam)
         refs = references("sequence_epl" if name.startswith("sequence") else name)
         d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], aspect) if cam is not None and frame in refs else float("nan")
         rows.append({"item": name, "status": est.status, "support": sup, "distance_1280": d, "seconds": seconds})
@@ -91,6 +91,12 @@ def still_rows(sheets: Path | None) -> list[dict]:
     if sheets is not None:
         sheet(overlays, sheets / "real_registration_stills.jpg")
     return rows
+
+
+def frame_support(img: np.ndarray, cam: Camera, pitch: PitchModel | None = None) -> float | None:
+    """The issue's line support (DESIGN.md 5b) of ``cam`` on the BGR frame ``img``
+    at its own size; None with too few markings in view."""
+    return line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points(pitch)).share
 
 
 def _register(img: np.ndarray, aspect: float = 1.0, pitch: PitchModel | None = None):
@@ -167,7 +173,7 @@ def still_agreement(path: Path, recs: list[dict], every: int, pitch: PitchModel)
             if cam is None:
                 continue
             size = (img.shape[1], img.shape[0])
-            sup = line_support(cam, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points(pitch)).share
+            sup = frame_support(img, cam, pitch)
             if sup is None or sup < STILL_BACKED:
                 continue
             checked += 1
