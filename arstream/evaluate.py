@@ -69,7 +69,7 @@ def _camera(rec: dict | None) -> Camera | None:
     return Camera.from_dict(rec)
 
 
-def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points: np.ndarray, symmetries: np.ndarray) -> FrameError | None:
+def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points: np.ndarray, symmetries: np.ndarray, pred_points: np.ndarray | None = None) -> FrameError | None:
     """Reprojection error of ``pred`` against ``truth`` on one frame.
 
     Parameters
@@ -78,6 +78,10 @@ def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points
     size : (width, height) pixels
     pitch_points : (N, 2) marking samples on the pitch, metres
     symmetries : (S, 3, 3) pitch symmetries (``PitchModel.symmetries``)
+    pred_points : (N, 2), optional, the same samples of the same markings on
+        the pitch ``pred`` was made at, when its size differs from the
+        truth's (:func:`arstream.pitch_size.corresponding_samples`): each
+        camera then projects its own pitch's marking. Default: ``pitch_points``
 
     Returns
     -------
@@ -92,6 +96,8 @@ def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points
         return None
     pt = pt[inside]
     Xv = X[front][inside]
+    if pred_points is not None:
+        Xv = np.column_stack([pred_points, np.zeros(len(pred_points))])[front][inside]
     best = None
     for k, S in enumerate(symmetries):
         Xs = Xv.copy()
@@ -116,7 +122,7 @@ def _ground_under_centre(truth: Camera, pred: Camera, size) -> np.ndarray | None
     return p if np.all(np.isfinite(p)) else None
 
 
-def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: PitchModel | None = None, spacing: float = 0.25) -> Score:
+def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: PitchModel | None = None, spacing: float = 0.25, pred_pitch: PitchModel | None = None) -> Score:
     """Score predicted camera records against truth records (matched by ``frame``).
 
     Parameters
@@ -124,11 +130,21 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
     truth : list of truth.jsonl records
     pred : list of cameras.jsonl records (frames missing from it count as lost)
     size : (width, height) of the frames, pixels
-    pitch : PitchModel (default 105 x 68)
+    pitch : PitchModel, the pitch the truth's markings are painted on (default 105 x 68)
     spacing : metres between marking samples
+    pred_pitch : PitchModel the predictions were made at, when not ``pitch``
+        (a size given or estimated otherwise): each marking is then scored
+        where each camera draws its own pitch's version of it
+        (:func:`arstream.pitch_size.corresponding_samples`), as a viewer sees
+        the drawn markings against the painted ones
     """
     pitch = pitch or PitchModel()
     pts = pitch.sample_points(spacing)
+    pred_pts = None
+    if pred_pitch is not None and (pred_pitch.length, pred_pitch.width) != (pitch.length, pitch.width):
+        from arstream.pitch_size import corresponding_samples
+
+        pts, pred_pts = corresponding_samples(pitch, pred_pitch, spacing)
     sym = pitch.symmetries
     by_frame = {}
     for r in pred:
@@ -152,7 +168,7 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
             worsts.append(np.inf)
             continue
         covered += 1
-        fe = frame_error(tc, pc, size, pts, sym)
+        fe = frame_error(tc, pc, size, pts, sym, pred_pts)
         if fe is None:
             worsts.append(np.inf)
             continue
@@ -182,9 +198,12 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
     )
 
 
-def score_files(truth_path, pred_path, size: tuple[int, int] | None = None) -> Score:
+def score_files(truth_path, pred_path, size: tuple[int, int] | None = None, pred_pitch: PitchModel | None = None) -> Score:
     """Score two JSON-lines files. The frame size comes from ``header.json`` beside the
-    truth file unless ``size`` is given (or, failing both, from the truth's principal point)."""
+    truth file unless ``size`` is given (or, failing both, from the truth's principal point);
+    the pitch the truth's markings are painted on from the header's ``pitch``
+    (105 x 68 without one). ``pred_pitch``: the size the predictions were made
+    at, when not the truth's (:func:`score`)."""
     import json
     import os
 
@@ -192,17 +211,22 @@ def score_files(truth_path, pred_path, size: tuple[int, int] | None = None) -> S
     pred = read_jsonl(pred_path)
     if not truth:
         raise InputError(f"{truth_path} has no records")
+    header = os.path.join(os.path.dirname(os.path.abspath(truth_path)), "header.json")
+    meta = {}
+    if os.path.exists(header):
+        with open(header) as f:
+            meta = json.load(f)
+    p = meta.get("pitch")
+    pitch = PitchModel(float(p["length"]), float(p["width"])) if p else None
     if size is None:
-        header = os.path.join(os.path.dirname(os.path.abspath(truth_path)), "header.json")
-        if os.path.exists(header):
-            with open(header) as f:
-                size = tuple(json.load(f)["size"])
+        if "size" in meta:
+            size = tuple(meta["size"])
         else:
             k = next((r["K"] for r in truth if r.get("K")), None)
             if k is None:
                 raise InputError("cannot tell the frame size: give --size")
             size = (int(round(2 * k[0][2] + 1)), int(round(2 * k[1][2] + 1)))
-    return score(truth, pred, size)
+    return score(truth, pred, size, pitch, pred_pitch=pred_pitch)
 
 
 def format_table(s: Score) -> str:

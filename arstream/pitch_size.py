@@ -51,7 +51,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "needs_scan", "choose_size", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -314,6 +314,35 @@ def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray
             s = np.clip((model.points[sel, :2] - a0) @ d / max(d @ d, 1e-12), 0.0, 1.0)[:, None]
             out[sel, :2] = (1 - s) * da + s * db
     return dL, dW
+
+
+def corresponding_samples(pitch: PitchModel, other: PitchModel, spacing: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+    """The markings of ``pitch`` sampled every ``spacing`` metres, and the same
+    points of the same markings on a pitch of ``other``'s size.
+
+    A sample at fraction ``s`` along a line goes to fraction ``s`` along the
+    same line of ``other``; a sample of an arc keeps its angle about the
+    arc's moved centre (Law 1 fixes the radii). The markings move linearly
+    with the size (:func:`size_derivatives`), so this is exact. Used to
+    judge a camera made at one size against one made at another, marking for
+    marking: where each draws the same painted line.
+
+    Parameters
+    ----------
+    pitch, other : PitchModel (their line widths are not used)
+    spacing : metres between samples along ``pitch``'s markings
+
+    Returns
+    -------
+    points, moved : (N, 2) float64, pitch frame (metres); ``points`` are
+        ``pitch.sample_points(spacing)``, in its order
+    """
+    model = ModelSamples.from_pitch(pitch, spacing)
+    points = model.points[:, :2].copy()
+    if (other.length, other.width) == (pitch.length, pitch.width):
+        return points, points.copy()
+    dL, dW = size_derivatives(pitch, model)
+    return points, points + dL[:, :2] * (other.length - pitch.length) + dW[:, :2] * (other.width - pitch.width)
 
 
 def estimate_pitch_size(

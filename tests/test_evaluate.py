@@ -101,3 +101,24 @@ def test_cli_eval(tmp_path, truth, capsys):
     (tmp_path / "bad.jsonl").write_text("{not json\n")
     assert main(["eval", "--truth", str(t), "--pred", str(tmp_path / "bad.jsonl")]) == 2
     assert "not valid JSON" in capsys.readouterr().err
+
+
+def test_a_camera_made_at_another_size_is_judged_on_its_own_markings():
+    # a camera looking down on the centre circle: the circle and the halfway
+    # line do not move with the pitch's length, so the truth's own camera
+    # made at another length draws them where they are painted (0 px); at
+    # another width the halfway line's samples slide along it (the same
+    # fraction of a longer line) and the score counts that
+    from arstream.pitch_size import corresponding_samples
+    from cameras import looking_at
+
+    cam = looking_at((0.0, -30.0, 40.0), (0.0, 0.0, 0.0), f=1400.0, size=SIZE)
+    painted = PitchModel(105.0, 68.0)
+    for other, zero in ((PitchModel(110.0, 68.0), True), (PitchModel(105.0, 72.0), False)):
+        pts, moved = corresponding_samples(painted, other)
+        fe = frame_error(cam, cam, SIZE, pts, painted.symmetries[:1], moved)
+        assert (fe.mean < 1e-9) == zero, (other, fe)
+        assert frame_error(cam, cam, SIZE, pts, painted.symmetries[:1]).mean < 1e-9
+    rec = [{"frame": 0, "status": "ok", **cam.to_dict()}]
+    assert score(rec, rec, SIZE, painted, pred_pitch=PitchModel(110.0, 68.0)).median < 1e-9
+    assert score(rec, rec, SIZE, painted, pred_pitch=PitchModel(105.0, 72.0)).median > 1.0

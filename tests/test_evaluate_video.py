@@ -235,7 +235,8 @@ def test_no_records_and_no_file(frames_dir, tmp_path, capsys):
     [
         ([], "one of the arguments --truth --video is required"),
         (["--truth", "t.jsonl", "--video", "v.mp4"], "argument --video: not allowed with argument --truth"),
-        (["--truth", "t.jsonl", "--pitch", "100x64"], "--pitch: only with --video"),
+        (["--truth", "t.jsonl", "--draw-every", "5"], "--draw-every: only with --video"),
+        (["--truth", "t.jsonl", "--pitch", "100x130"], "argument --pitch: pitch width must be 45-90 m (Law 1), got 130.0"),
         (["--truth", "t.jsonl", "--draw-dir", "d", "--pixel-aspect", "2"], "--draw-dir, --pixel-aspect: only with --video"),
         (["--video", "v.mp4", "--size", "640x360"], "--size: only with --truth (with --video the frames give the size)"),
         (["--video", "v.mp4", "--draw-every", "5"], "--draw-every needs --draw-dir"),

@@ -46,6 +46,32 @@ def test_size_derivatives_move_every_sample_onto_the_other_pitch_s_marking():
         assert d.max() < 1e-9, name
 
 
+def test_corresponding_samples_are_the_same_points_of_the_same_markings():
+    from arstream.pitch_size import corresponding_samples
+
+    prior, other = PitchModel(), PitchModel(108.0, 64.5)
+    pts, moved = corresponding_samples(prior, other, 0.25)
+    assert np.array_equal(pts, prior.sample_points(0.25)) and moved.shape == pts.shape
+    start = 0
+    for name, m in prior.markings.items():
+        n = len(m.sample(0.25))
+        p, q, o = pts[start : start + n], moved[start : start + n], other[name]
+        start += n
+        if hasattr(m, "radius"):
+            # on the other pitch's arc, at the same angle about its (moved) centre
+            assert np.abs(np.hypot(*(q - np.asarray(o.center)).T) - o.radius).max() < 1e-9, name
+            a0, a1 = (np.arctan2(*(x - np.asarray(c.center)).T[::-1]) for x, c in ((p, m), (q, o)))
+            assert np.abs(np.angle(np.exp(1j * (a1 - a0)))).max() < 1e-9, name
+        else:
+            # on the other pitch's line, at the same fraction of its length
+            a, b, oa, ob = (np.asarray(v, float) for v in (m.start, m.end, o.start, o.end))
+            s0 = (p - a) @ (b - a) / ((b - a) @ (b - a))
+            assert np.abs(q - (oa + s0[:, None] * (ob - oa))).max() < 1e-9, name
+    assert start == len(pts)
+    same, again = corresponding_samples(prior, PitchModel(105.0, 68.0), 0.5)
+    assert np.array_equal(same, again)
+
+
 @pytest.mark.parametrize("truth", [(101.0, 71.0), (108.5, 65.0), (105.0, 68.0)])
 def test_the_size_comes_back_from_exact_views(truth):
     # a tripod camera beside the halfway line panning from the centre circle to a
@@ -216,24 +242,53 @@ def test_the_default_finds_an_odd_pitch(tmp_path):
     assert s.frames == FRAMES_ODD and len(cams.read_text().splitlines()) == FRAMES_ODD
     assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
     # against the truth, the cameras are far better than those at 105 x 68
-    # (the estimate is adopted once it has its views, a second into the clip:
-    # the frames before are drawn at the grid's size)
+    # (each judged on its own pitch's markings: where it draws the painted lines)
     fixed = tmp_path / "fixed.jsonl"
     f = process(tmp_path / "clip" / "clip.mp4", cameras_out=fixed, pitch=(105, 68), handle_signals=False)
-    sc, sc_fixed = score_files(tmp_path / "clip" / "truth.jsonl", cams), score_files(tmp_path / "clip" / "truth.jsonl", fixed)
+    truth = tmp_path / "clip" / "truth.jsonl"
+    sc, sc_fixed = score_files(truth, cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"])), score_files(truth, fixed, pred_pitch=PitchModel())
     assert sc.coverage >= 0.95 and sc.median < 0.5 * sc_fixed.median, (sc, sc_fixed)
-    # the summary's times are all the runs' (the first, the scan's, the second)
-    assert s.seconds > 2 * f.seconds and s.cpu_seconds > 2 * f.cpu_seconds
+    # the second run adopts its estimate once it has its views; every frame of
+    # the outputs is then tracked at it, the first frames too: as a run given
+    # that size (to the summary's millimetre) would track them
+    assert s.pitch["source"] == "estimated" and (s.pitch["length"], s.pitch["width"]) != (100.0, 68.0), s.pitch_text
+    given = tmp_path / "given.jsonl"
+    process(tmp_path / "clip" / "clip.mp4", cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
+    # the summary's times are all the runs' (the first, the scan's, the second, the last)
+    assert s.seconds > 3 * f.seconds and s.cpu_seconds > 3 * f.cpu_seconds
+
+
+def _largest_gap(a, b, size) -> float:
+    """Largest distance (px) between two cameras files' projections of the
+    105 x 68 markings over their frames; inf where one has a camera and the other not."""
+    from arstream.sink import read_jsonl
+    from geometry.camera import Camera
+    from geometry.pitch import PitchModel
+
+    X = np.column_stack([PitchModel().sample_points(1.0), np.zeros(len(PitchModel().sample_points(1.0)))])
+    gap = 0.0
+    for ra, rb in zip(read_jsonl(a), read_jsonl(b), strict=True):
+        if (ra.get("K") is None) != (rb.get("K") is None):
+            return float("inf")
+        if ra.get("K") is None:
+            continue
+        ca, cb = Camera.from_dict(ra), Camera.from_dict(rb)
+        pa = ca.project(X)
+        seen = ca.in_front(X) & (pa[:, 0] >= 0) & (pa[:, 0] < size[0]) & (pa[:, 1] >= 0) & (pa[:, 1] < size[1])
+        gap = max(gap, float(np.linalg.norm(cb.project(X[seen]) - pa[seen], axis=1).max()))
+    return gap
 
 
 FRAMES_ODD = 30
 
 
-@pytest.mark.parametrize("stop_in", [2, 4], ids=["during-the-scan", "during-the-second-run"])
+@pytest.mark.parametrize("stop_in", [2, 4, 5], ids=["during-the-scan", "during-the-second-run", "during-the-last-run"])
 def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in):
     # SIGINT while the scan (the 2nd and 3rd passes over the clip) or the second
     # run (the 4th) goes on: Interrupted carries the first run's summary, and
-    # its outputs, complete, are what is on disk (nothing of the second run's)
+    # its outputs, complete, are what is on disk (nothing of the second run's);
+    # during the last run (the 5th, at the second's estimate), the second's
     import os
     import signal
 
@@ -257,7 +312,17 @@ def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in
     with pytest.raises(Interrupted) as e:
         process(clip, out, cameras_out=cams, progress=progress)
     s = e.value.summary
+    assert len(passes) == stop_in
     assert e.value.signum == signal.SIGINT and s.interrupted == signal.SIGINT
-    assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
-    assert cams.read_bytes() == fixed.read_bytes()  # the first run's, at 105 x 68
     assert sorted(p.name for p in out.parent.iterdir()) == ["c.jsonl", "o.mp4"]
+    if stop_in < 5:
+        assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
+        assert cams.read_bytes() == fixed.read_bytes()  # the first run's, at 105 x 68
+        return
+    import av
+
+    assert s.frames == FRAMES_ODD and s.pitch["source"] == "estimated" and s.pitch["scan"]["chosen"] > 0, s.pitch_text
+    lines = cams.read_text().splitlines()
+    assert len(lines) == FRAMES_ODD and cams.read_bytes() != fixed.read_bytes()  # the second run's, whole
+    with av.open(str(out)) as c:
+        assert sum(1 for _ in c.decode(video=0)) == FRAMES_ODD

@@ -53,13 +53,19 @@ def register(subparsers) -> None:
         ),
     )
     mode = p.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--truth", help="truth.jsonl of a synthetic clip (header.json beside it gives the frame size)")
+    mode.add_argument("--truth", help="truth.jsonl of a synthetic clip (header.json beside it gives the frame size and the pitch's size)")
     mode.add_argument("--video", metavar="CLIP", help="the input the cameras were made from: a video, a still image, a folder or a glob of numbered frames")
     p.add_argument("--pred", required=True, help="cameras.jsonl to score")
     p.add_argument("--size", type=_size, default=None, metavar="WxH", help="with --truth: frame size if there is no header.json")
     p.add_argument("--draw-every", type=_positive(int), default=None, metavar="N", help="with --video: draw the projected markings over every Nth frame (needs --draw-dir)")
     p.add_argument("--draw-dir", metavar="DIR", help="with --video: folder for the overlays (frame_NNNNNN.png) and contact_sheet.png (default --draw-every: 25)")
-    p.add_argument("--pitch", type=_pitch, default=None, metavar="LxW", help="with --video: pitch size in metres (default 105x68)")
+    p.add_argument(
+        "--pitch",
+        type=_pitch,
+        default=None,
+        metavar="LxW",
+        help="the pitch size in metres the cameras were made at (what arstream process printed). With --video the markings drawn and judged (default 105x68); with --truth, when not the clip's own size, each camera is judged on its own pitch's markings (default: the clip's)",
+    )
     p.add_argument("--pixel-aspect", type=_positive(float), default=None, metavar="A", help="with --video: a pixel's width over its height, for overlays and 1280-wide pixels (default: the cameras' K[1][1]/K[0][0])")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=run, _parser=p)
@@ -68,12 +74,13 @@ def register(subparsers) -> None:
 def run(args) -> int:
     parser = args._parser
     if args.truth is not None:
-        given = [o for o, v in (("--draw-every", args.draw_every), ("--draw-dir", args.draw_dir), ("--pitch", args.pitch), ("--pixel-aspect", args.pixel_aspect)) if v is not None]
+        given = [o for o, v in (("--draw-every", args.draw_every), ("--draw-dir", args.draw_dir), ("--pixel-aspect", args.pixel_aspect)) if v is not None]
         if given:
             parser.error(f"{', '.join(given)}: only with --video")
         from arstream.evaluate import format_table, score_files
+        from geometry.pitch import PitchModel
 
-        s = score_files(args.truth, args.pred, args.size)
+        s = score_files(args.truth, args.pred, args.size, pred_pitch=PitchModel(*args.pitch) if args.pitch else None)
         print(json.dumps(s.to_dict(), indent=2) if args.json else format_table(s))
         return 0
     if args.size is not None:

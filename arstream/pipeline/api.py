@@ -299,7 +299,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
 
 
 def _aside(path):
-    """A name beside ``path`` for a second run's output (hidden, same extension)."""
+    """A name beside ``path`` for a later run's output (hidden, same extension)."""
     if path is None:
         return None
     path = os.fspath(path)
@@ -314,10 +314,15 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     the clip again from it, estimating the size within the scan's grid step
     from the views that size's cameras lay on their paint
     (:func:`arstream.pitch_size.estimate_pitch_size`: the views are right
-    now, as at 105 x 68 they were not). The second run writes beside the outputs and
-    replaces them only when it completes: stopped by a signal, the first
-    run's complete outputs stay (and :class:`Interrupted` carries its
-    summary). The summary's seconds and CPU seconds are all the runs'."""
+    now, as at 105 x 68 they were not). That run adopts the estimate once it
+    has its views, and its frames before were drawn at the grid's size (up to
+    2.5 m off along each axis: tens of pixels where the markings are near the
+    camera); so when the estimate is another size, a last run tracks the
+    whole clip at the estimate, as if it had been given. Each run after the
+    first writes beside the outputs and replaces them only when it completes:
+    stopped by a signal, the last complete run's outputs stay (and
+    :class:`Interrupted` carries its summary). The summary's seconds and CPU
+    seconds are all the runs'."""
     from arstream.pipeline.pitch_scan import scan_sizes
     from arstream.pitch_size import PitchSize
     from geometry.pitch import PitchModel
@@ -336,32 +341,48 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     except Interrupted as e:
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None
+    first.seconds += scan_s
+    first.cpu_seconds += scan_cpu
     if scan.chosen == 0:
         size = PitchSize(*scan.sizes[0], source="default", views=scan.frames, scan=scan)
         first.pitch, first.pitch_text = size.to_dict(), size.describe()
-        first.seconds += scan_s
-        first.cpu_seconds += scan_cpu
         return first
+    second, est = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(*scan.size), estimate_pitch=True)
+    estimated = est is not None and est.source == "estimated"
+    size = dataclasses.replace(est, scan=scan) if estimated else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
+    second.pitch, second.pitch_text = size.to_dict(), size.describe()
+    if not estimated or (est.length, est.width) == tuple(scan.size):
+        return second
+    last, _ = _run_beside(input, output, cameras_out, second, run, pitch=size.model(), estimate_pitch=False)
+    last.pitch, last.pitch_text = size.to_dict(), size.describe()
+    return last
+
+
+def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool) -> tuple[Summary, object]:
+    """One more run of :func:`process` (:func:`_process_once` at ``pitch``)
+    written beside the outputs (:func:`_aside`), which replace them only when
+    it completes: (its summary, the seconds and CPU seconds of ``before``
+    added, and the tracker's PitchSize). Stopped by a signal or failing, it
+    leaves ``before``'s outputs in place and removes its own; on a signal
+    :class:`Interrupted` carries ``before``."""
     aside = [(_aside(p), p) for p in (output, cameras_out) if p is not None]
     try:
-        second, _, _, est = _process_once(input, _aside(output), _aside(cameras_out), pitch=PitchModel(*scan.size), estimate_pitch=True, **run)
+        after, _, _, est = _process_once(input, _aside(output), _aside(cameras_out), pitch=pitch, estimate_pitch=estimate_pitch, **run)
     except BaseException as e:
         for tmp, _ in aside:
             with contextlib.suppress(OSError):
                 os.remove(tmp)
         if isinstance(e, Interrupted):
-            first.interrupted = e.signum
-            raise Interrupted(e.signum, first) from None
+            before.interrupted = e.signum
+            raise Interrupted(e.signum, before) from None
         raise
     for tmp, final in aside:
         os.replace(tmp, final)
-    second.output = os.fspath(output) if output is not None else None
-    second.cameras = os.fspath(cameras_out) if cameras_out is not None else None
-    size = dataclasses.replace(est, scan=scan) if est is not None and est.source == "estimated" else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
-    second.pitch, second.pitch_text = size.to_dict(), size.describe()
-    second.seconds += first.seconds + scan_s
-    second.cpu_seconds += first.cpu_seconds + scan_cpu
-    return second
+    after.output = os.fspath(output) if output is not None else None
+    after.cameras = os.fspath(cameras_out) if cameras_out is not None else None
+    after.seconds += before.seconds
+    after.cpu_seconds += before.cpu_seconds
+    return after, est
 
 
 def _note_pitch(summary: Summary, track_box: list) -> None:
