@@ -62,27 +62,30 @@ def run_one(preset: str, seed: int, frames: int, workdir: Path) -> dict:
     clip = workdir / f"{preset}-{seed}-{frames}"
     if not (clip / "truth.jsonl").exists():
         generate(clip, preset=preset, seed=seed, frames=frames)
-    header = json.loads((clip / "header.json").read_text())
-    truth_pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
-    size = tuple(header["size"])
     with tempfile.TemporaryDirectory() as tmp:
         cams = Path(tmp) / "cameras.jsonl"
         t0 = time.perf_counter()
         summary = process(clip / "clip.mp4", cameras_out=cams, handle_signals=False)
         seconds = time.perf_counter() - t0
-        pred = read_jsonl(cams)
-    used = summary.pitch or {"length": 105.0, "width": 68.0}
-    run_pitch = PitchModel(used["length"], used["width"])
-    truth = read_jsonl(clip / "truth.jsonl")
+        used = summary.pitch or {"length": 105.0, "width": 68.0}
+        row = score_run(clip, cams, PitchModel(used["length"], used["width"]))
+    return {"clip": f"{preset} {seed}", **row, "pitch_source": used.get("source", "default"), "seconds": seconds}
+
+
+def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
+    """A run's cameras (``cameras.jsonl``, made at ``run_pitch``) against the
+    clip's truth, marking for marking: the table's figures."""
+    header = json.loads((clip / "header.json").read_text())
+    truth_pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
+    size = tuple(header["size"])
+    truth, pred = read_jsonl(clip / "truth.jsonl"), read_jsonl(cameras)
     whole = score(truth, pred, size, truth_pitch, pred_pitch=run_pitch)
     # (each frame on its own: the mean error of the markings in its view)
     by_frame = {int(r["frame"]): r for r in pred}
     means = []
     for t in truth:
-        if not t.get("visible_pitch", t.get("K") is not None) or t.get("K") is None:
-            continue
         p = by_frame.get(int(t["frame"]))
-        if p is None or p.get("K") is None or p.get("status") == "lost":
+        if t.get("K") is None or not t.get("visible_pitch", True) or p is None:
             continue
         s = score([t], [p], size, truth_pitch, pred_pitch=run_pitch)
         if np.isfinite(s.median):
@@ -90,16 +93,13 @@ def run_one(preset: str, seed: int, frames: int, workdir: Path) -> dict:
     means = np.array(means)
     n = whole.pitch_frames
     return {
-        "clip": f"{preset} {seed}",
         "truth_pitch": [truth_pitch.length, truth_pitch.width],
         "run_pitch": [round(run_pitch.length, 1), round(run_pitch.width, 1)],
-        "pitch_source": used.get("source", "default"),
         "coverage": whole.coverage,
         "median_1280": float(np.median(means)) if len(means) else None,
         "within_5px": float(np.sum(means <= 5.0) / n) if n else None,
         "beyond_20px": int(np.sum(means > 20.0)),
         "frames": n,
-        "seconds": seconds,
     }
 
 
