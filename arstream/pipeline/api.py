@@ -315,9 +315,9 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     from the views that size's cameras lay on their paint
     (:func:`arstream.pitch_size.estimate_pitch_size`: the views are right
     now, as at 105 x 68 they were not). That run adopts the estimate once it
-    has its views, and its frames before were drawn at the grid's size (up to
-    2.5 m off along each axis: tens of pixels where the markings are near the
-    camera); so when the estimate is another size, a last run tracks the
+    has its views, and its frames before were drawn at the grid's size (metres
+    off: 110 x 64 for a 103.5 x 65 m pitch; tens of pixels where the markings
+    are near the camera); so when the estimate is another size, a last run tracks the
     whole clip at the estimate, as if it had been given. Each run after the
     first writes beside the outputs and replaces them only when it completes:
     stopped by a signal, the last complete run's outputs stay (and
