@@ -97,7 +97,8 @@ def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points
     pt = pt[inside]
     Xv = X[front][inside]
     if pred_points is not None:
-        Xv = np.column_stack([pred_points, np.zeros(len(pred_points))])[front][inside]
+        P = np.asarray(pred_points, np.float64)[front][inside]
+        Xv = np.column_stack([P, np.zeros(len(P))])
     best = None
     for k, S in enumerate(symmetries):
         Xs = Xv.copy()
@@ -139,12 +140,11 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
         the drawn markings against the painted ones
     """
     pitch = pitch or PitchModel()
-    pts = pitch.sample_points(spacing)
-    pred_pts = None
+    pts, pred_pts = pitch.sample_points(spacing), None
     if pred_pitch is not None and (pred_pitch.length, pred_pitch.width) != (pitch.length, pitch.width):
         from arstream.pitch_size import corresponding_samples
 
-        pts, pred_pts = corresponding_samples(pitch, pred_pitch, spacing)
+        _, pred_pts = corresponding_samples(pitch, pred_pitch, spacing)
     sym = pitch.symmetries
     by_frame = {}
     for r in pred:

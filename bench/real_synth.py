@@ -38,11 +38,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from arstream.evaluate import score  # noqa: E402
+from arstream.evaluate import frame_error, score  # noqa: E402
+from arstream.pitch_size import corresponding_samples  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
 from arstream.presets import REAL_PRESETS  # noqa: E402
 from arstream.sink import read_jsonl  # noqa: E402
 from arstream.synth import generate  # noqa: E402
+from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
 
 
@@ -81,15 +83,16 @@ def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
     truth, pred = read_jsonl(clip / "truth.jsonl"), read_jsonl(cameras)
     whole = score(truth, pred, size, truth_pitch, pred_pitch=run_pitch)
     # (each frame on its own: the mean error of the markings in its view)
+    pts, moved = corresponding_samples(truth_pitch, run_pitch)
     by_frame = {int(r["frame"]): r for r in pred}
     means = []
     for t in truth:
         p = by_frame.get(int(t["frame"]))
-        if t.get("K") is None or not t.get("visible_pitch", True) or p is None:
+        if t.get("K") is None or not t.get("visible_pitch", True) or p is None or p.get("K") is None or p.get("status") == "lost":
             continue
-        s = score([t], [p], size, truth_pitch, pred_pitch=run_pitch)
-        if np.isfinite(s.median):
-            means.append(s.median * 1280.0 / size[0])
+        fe = frame_error(Camera.from_dict(t), Camera.from_dict(p), size, pts, truth_pitch.symmetries, moved)
+        if fe is not None:
+            means.append(fe.mean * 1280.0 / size[0])
     means = np.array(means)
     n = whole.pitch_frames
     return {
