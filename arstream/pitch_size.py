@@ -51,7 +51,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -70,6 +70,22 @@ SCAN_BELOW = 0.95
 #: it equally well differs by up to about 0.02 (israel_league_wide at 480p:
 #: 0.860-0.876 at 100, 105 and 110 m), a size 5 m off by 0.15-0.18
 SCAN_MARGIN = 0.05
+#: the scan's paired test (:func:`higher_throughout`), the other way a size
+#: wins: the clip cut into blocks of this many frames (a second at 25 fps)
+#: and each size's line support compared frame by frame with the other's on
+#: the frames both gave a camera. The frames of a clip differ far more from
+#: each other (views, paint, blur) than two sizes on one frame, so a size
+#: that fits better by 0.01 on every frame can still lose to the margin on
+#: the medians (``bench/README.md``, "Stop 50")
+SCAN_BLOCK = 25
+#: a block is for (against) a size when the median of its paired differences
+#: is above (below) this; within it, a tie (the views do not tell the sizes
+#: apart: a penalty view cannot see the pitch's length)
+SCAN_TIE = 0.005
+#: fewest blocks for a size, and the level of the one-sided sign test over
+#: the blocks for and against it (ties left out), for the size to win
+SCAN_MIN_BLOCKS = 5
+SCAN_SIGN_LEVEL = 0.05
 #: the lengths and widths a scan tries (metres): Law 1's international range
 #: (100-110 x 64-75 m) on a grid of about its half-widths, 105 x 68 at the
 #: centre (:func:`grid_neighbours`)
@@ -226,6 +242,50 @@ def grid_neighbours(size) -> list[tuple[float, float]]:
     return out + [(L, SCAN_WIDTHS[k]) for k in (j - 1, j + 1) if 0 <= k < len(SCAN_WIDTHS)]
 
 
+def paired_blocks(base, other, block: int = SCAN_BLOCK) -> tuple[int, int]:
+    """How many blocks of the clip back ``other``'s cameras more than ``base``'s.
+
+    Parameters
+    ----------
+    base, other : sequences of the same frames, a line support per frame
+        (None where that size's tracker gave no camera)
+    block : frames per block (:data:`SCAN_BLOCK`)
+
+    Returns
+    -------
+    (for, against): blocks of ``block`` consecutive frames, of which at least
+    two fifths have a camera at both sizes, whose median of ``other`` minus
+    ``base`` over those frames is above :data:`SCAN_TIE` (for) or below
+    minus it (against).
+    """
+    if len(base) != len(other):
+        raise ValueError(f"both sizes' supports must be of the same frames: {len(base)} and {len(other)}")
+    pro = con = 0
+    for s in range(0, len(base), block):
+        d = [float(y) - float(x) for x, y in zip(base[s : s + block], other[s : s + block]) if x is not None and y is not None]
+        if len(d) >= 0.4 * block:
+            m = float(np.median(d))
+            pro += m > SCAN_TIE
+            con += m < -SCAN_TIE
+    return pro, con
+
+
+def higher_throughout(base, other) -> bool:
+    """Whether the paint backs ``other``'s cameras more than ``base``'s
+    throughout the clip, not only in the median: at least
+    :data:`SCAN_MIN_BLOCKS` blocks for it (:func:`paired_blocks`) and a
+    one-sided sign test over the blocks for and against at
+    :data:`SCAN_SIGN_LEVEL` (e.g. 5 for and none against, 7 for and one
+    against). The blocks are not independent (the tracker carries its
+    tripod centre from one to the next), so the level is nominal: on 20
+    realistic synthetic clips of a 105 x 68 m pitch no neighbour of it had
+    more than 2 blocks for (``bench/README.md``, "Stop 50")."""
+    from scipy.stats import binomtest
+
+    pro, con = paired_blocks(base, other)
+    return bool(pro >= SCAN_MIN_BLOCKS and binomtest(pro, pro + con, 0.5, alternative="greater").pvalue <= SCAN_SIGN_LEVEL)
+
+
 def choose_size(sizes, supports) -> SizeScan:
     """The size whose cameras the clip's paint backs best.
 
@@ -237,16 +297,27 @@ def choose_size(sizes, supports) -> SizeScan:
 
     Returns
     -------
-    SizeScan. Another size replaces the default only with a median line
-    support higher by :data:`SCAN_MARGIN` and a coverage no lower by more
-    than 5 points (a size that finds cameras on fewer frames is not a
-    better fit for scoring only its easy ones), and only when the default
-    has a median itself (the scan's trackers followed the clip). A dimension along which a
-    smaller and a larger size both beat the default so, within
-    :data:`SCAN_MARGIN` of each other, is inconclusive (a pitch is not both
-    shorter and longer: the clip's support does not tell its sizes apart,
-    e.g. a low-resolution clip of long-lens views), and no size that changes
-    it is chosen.
+    SizeScan. A size is *higher* than another when its median line support
+    is higher by :data:`SCAN_MARGIN`, or when the paint backs it more
+    frame by frame throughout the clip (:func:`higher_throughout`); against
+    the default, a size higher by the paired test alone also needs the size
+    on the other side of the default along that dimension not to lean the
+    same way (more blocks for it than against: a long lens's views that
+    cannot tell 100 from 110 m favour both a little). Another
+    size replaces the default only when it is higher than the default on a
+    coverage no lower by more than 5 points (a size that finds cameras on
+    fewer frames is not a better fit for scoring only its easy ones), and
+    only when the default has a median itself (the scan's trackers followed
+    the clip). A dimension along which a smaller and a larger size are both
+    higher than the default, with medians within :data:`SCAN_MARGIN` of each
+    other, is inconclusive (a pitch is not both shorter and longer: the
+    clip's support does not tell its sizes apart, e.g. a low-resolution clip
+    of long-lens views), and no size that changes it is chosen. Of the sizes
+    left, the nearest to the default on the grid (fewest dimensions changed;
+    of those, the highest median) is taken, and a farther one replaces it
+    only when it is higher than that one too: a size two steps off must
+    beat the one step off on the clip's evidence, not on a median within the
+    noise (a penalty view's 100, 105 and 110 m lengths alike).
     """
     sizes = tuple((float(L), float(W)) for L, W in sizes)
     if len(supports) != len(sizes) or not sizes:
@@ -257,21 +328,48 @@ def choose_size(sizes, supports) -> SizeScan:
     med = tuple(_median(s) for s in supports)
     cov = tuple(float(np.mean([x is not None for x in s])) if frames else 0.0 for s in supports)
     d = sizes[0]
-    # (a default without a median, its tracker lost on most frames, is no
-    # baseline: the scan's trackers cannot follow this clip, and the default stays)
-    higher = [k > 0 and med[0] is not None and med[k] is not None and med[k] >= med[0] + SCAN_MARGIN for k in range(len(sizes))]
-    beats = [h and cov[k] >= cov[0] - 0.05 for k, h in enumerate(higher)]
+
+    def higher(j: int, k: int) -> bool:
+        # (a size without a median, its tracker lost on most frames, is no
+        # baseline: the scan's trackers cannot follow this clip there)
+        return med[j] is not None and med[k] is not None and (med[k] >= med[j] + SCAN_MARGIN or higher_throughout(supports[j], supports[k]))
+
+    def leans(k: int) -> bool:
+        # (more blocks for the size than against it)
+        pro, con = paired_blocks(supports[0], supports[k])
+        return pro > con
+
+    def opposite(k: int) -> int | None:
+        # (the size on the other side of the default along the one dimension k changes)
+        axes = [a for a in (0, 1) if sizes[k][a] != d[a]]
+        if len(axes) != 1:
+            return None
+        a = axes[0]
+        mirror = tuple(2 * d[a] - sizes[k][a] if b == a else d[b] for b in (0, 1))
+        return sizes.index(mirror) if mirror in sizes else None
+
+    def up(k: int) -> bool:
+        if not higher(0, k):
+            return False
+        if med[k] >= med[0] + SCAN_MARGIN:
+            return True
+        o = opposite(k)
+        return o is None or med[o] is None or not leans(o)
+
+    up = [k > 0 and up(k) for k in range(len(sizes))]
     open_axes = []
     for a in (0, 1):
         # (the evidence against a dimension counts a size on fewer frames too)
-        along = [k for k in range(1, len(sizes)) if higher[k] and sizes[k][1 - a] == d[1 - a]]
+        along = [k for k in range(1, len(sizes)) if up[k] and sizes[k][1 - a] == d[1 - a]]
         lo = [med[k] for k in along if sizes[k][a] < d[a]]
         hi = [med[k] for k in along if sizes[k][a] > d[a]]
         if lo and hi and abs(max(lo) - max(hi)) < SCAN_MARGIN:
             open_axes.append(a)
+    changed = lambda k: sum(sizes[k][a] != d[a] for a in (0, 1))  # noqa: E731
+    left = [k for k in range(1, len(sizes)) if up[k] and cov[k] >= cov[0] - 0.05 and all(sizes[k][a] == d[a] for a in open_axes)]
     chosen = 0
-    for k in range(1, len(sizes)):
-        if beats[k] and all(sizes[k][a] == d[a] for a in open_axes) and (chosen == 0 or med[k] > med[chosen]):
+    for k in sorted(left, key=lambda k: (changed(k), -med[k])):
+        if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
     return SizeScan(sizes, med, cov, frames, chosen)
 

@@ -179,6 +179,112 @@ def test_an_open_dimension_leaves_the_other_to_choose():
     assert got.size == (105.0, 72.0)
 
 
+def _noisy(n, seed, lo=0.80, hi=0.99):
+    return list(np.random.default_rng(seed).uniform(lo, hi, n))
+
+
+@pytest.mark.parametrize(
+    "base, other, expected",
+    [
+        ([0.9] * 100, [0.9] * 100, (0, 0)),  # the same cameras (a penalty view's lengths): ties
+        ([0.9] * 100, [0.91] * 100, (4, 0)),  # higher in each block of 25
+        ([0.9] * 100, [0.904] * 100, (0, 0)),  # by less than SCAN_TIE: ties
+        ([0.9] * 50 + [0.95] * 50, [0.95] * 50 + [0.9] * 50, (2, 2)),
+        ([0.9] * 25 + [None] * 16 + [0.9] * 9, [1.0] * 50, (1, 0)),  # 9 of 25 frames paired: that block is left out
+        ([0.9] * 25 + [None] * 15 + [0.9] * 10, [1.0] * 50, (2, 0)),  # 10 of 25 (two fifths): counted
+        ([0.9] * 30, [0.95] * 30, (1, 0)),  # the last 5 frames are too few for a block
+    ],
+)
+def test_paired_blocks(base, other, expected):
+    from arstream.pitch_size import paired_blocks
+
+    assert paired_blocks(base, other) == expected
+
+
+@pytest.mark.parametrize(
+    "pro, con, higher",
+    [(5, 0, True), (4, 0, False), (7, 1, True), (6, 1, False), (6, 2, False), (9, 2, True), (0, 0, False)],
+)
+def test_higher_throughout_is_a_sign_test_over_blocks(pro, con, higher):
+    # one-sided sign test at 0.05 with at least 5 blocks for: 5-0 p = 1/32; 6-1 p = 0.0625; 9-2 p = 0.033
+    from arstream.pitch_size import higher_throughout
+
+    base = [0.9] * (25 * (pro + con + 2))
+    other = [0.92] * (25 * pro) + [0.88] * (25 * con) + [0.9] * 50
+    assert higher_throughout(base, other) is higher
+
+
+def test_a_size_higher_on_every_frame_wins_under_the_margin():
+    # frames differ by 0.19 from each other; one size is 0.012 higher on each frame
+    # (medians 0.012 apart, under SCAN_MARGIN): it wins on the paired test; the
+    # same supports shuffled within +-0.02 of the default's, it does not
+    from arstream.pitch_size import SCAN_MARGIN, choose_size
+
+    base = _noisy(200, 1)
+    better = [b + 0.012 for b in base]
+    alike = [b + e for b, e in zip(base, np.random.default_rng(2).uniform(-0.02, 0.02, 200))]
+    got = choose_size([(105, 68), (105, 72)], [base, better])
+    assert got.median[1] - got.median[0] < SCAN_MARGIN and got.chosen == 1
+    assert choose_size([(105, 68), (105, 72)], [base, alike]).chosen == 0
+
+
+def test_a_farther_size_must_beat_the_nearer_one():
+    # 105 x 72 beats the default; 110 x 72 (two dimensions changed) has a higher
+    # median than 105 x 72, but is higher on half the clip and lower on the
+    # other half: the nearer is kept. Higher than
+    # it on every frame, the farther one is taken.
+    from arstream.pitch_size import choose_size
+
+    base = _noisy(200, 3, 0.70, 0.80)
+    near = [b + 0.1 for b in base]
+    mixed = [n + (0.02 if i < 100 else -0.01) for i, n in enumerate(near)]  # 4 blocks for, 4 against
+    sizes = [(105, 68), (105, 72), (110, 72)]
+    got = choose_size(sizes, [base, near, mixed])
+    assert got.median[2] > got.median[1] and got.size == (105.0, 72.0)
+    assert choose_size(sizes, [base, near, [n + 0.01 for n in near]]).size == (110.0, 72.0)
+
+
+@pytest.mark.parametrize(
+    "longer, chosen",
+    [
+        (-0.01, 1),  # 110 m lower on every frame: 100 m's paired win stands
+        (0.0, 1),  # 110 m ties
+        (0.008, 0),  # 110 m a little higher too (not enough to win): the length is open
+    ],
+)
+def test_a_paired_win_needs_the_other_side_not_to_lean_the_same_way(longer, chosen):
+    # 100 m higher by 0.012 on every frame (under SCAN_MARGIN): it wins only
+    # while 110 m, the other side of the default's length, does not lean higher as well
+    from arstream.pitch_size import choose_size
+
+    base = _noisy(200, 5)
+    sizes = [(105, 68), (100, 68), (110, 68)]
+    got = choose_size(sizes, [base, [b + 0.012 for b in base], [b + longer for b in base]])
+    assert got.chosen == chosen
+    # a win by the margin is not held back by the other side leaning
+    assert choose_size(sizes, [base, [b + 0.06 for b in base], [b + 0.008 for b in base]]).chosen == 1
+
+
+def test_the_scan_s_passes_over_the_grid():
+    # the second pass tracks the winner's neighbours not yet tracked, and the
+    # choice is made over every size tracked
+    from arstream.pipeline.pitch_scan import scan_passes
+
+    asked = []
+    fit = {(100.0, 72.0): 0.97, (100.0, 68.0): 0.90, (105.0, 72.0): 0.88}
+
+    def track(sizes):
+        asked.append(list(sizes))
+        return [_sup(fit.get(s, 0.80)) for s in sizes]
+
+    got = scan_passes(track)
+    assert asked == [[(105.0, 68.0), (100.0, 68.0), (110.0, 68.0), (105.0, 64.0), (105.0, 72.0)], [(100.0, 64.0), (100.0, 72.0)]]
+    assert got.size == (100.0, 72.0) and len(got.sizes) == 7
+    asked.clear()
+    fit.clear()
+    assert scan_passes(track).chosen == 0 and len(asked) == 1  # nothing wins: one pass
+
+
 def test_choose_size_needs_enough_frames_and_matching_lists():
     from arstream.pitch_size import SCAN_MIN_FRAMES, choose_size
 

@@ -22,7 +22,7 @@ from arstream.pipeline.summary import Summary
 from arstream.pitch_size import SizeScan, choose_size, grid_neighbours
 from arstream.support import frame_mask, line_support, marking_points
 
-__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "SCAN_MAX_FRAMES"]
+__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "scan_passes", "SCAN_MAX_FRAMES"]
 
 #: most frames a scan tracks (a clip's first 30 s at 25 fps: the views of
 #: half a minute of play judge the size as a match's would, and each pass
@@ -148,8 +148,8 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     them wins (:func:`arstream.pitch_size.choose_size`), that one's
     neighbours too, in a second pass (a length and a width both off). The
     choice is :func:`~arstream.pitch_size.choose_size` over every size
-    tracked: all of them on the same frames by the same causal tracker, so
-    their line supports compare.
+    tracked (:func:`scan_passes`): all of them on the same frames by the
+    same causal tracker, so their line supports compare, frame by frame.
 
     Parameters
     ----------
@@ -167,25 +167,51 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     ------
     Interrupted : stopped by a signal
     """
+    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+    spent = [0.0, 0.0]
+
+    def track(sizes):
+        with open_source() as src:
+            supports, summary = track_sizes(src, analysis, sizes, max_frames=limit, **kwargs)
+        spent[0] += summary.seconds
+        spent[1] += summary.cpu_seconds
+        return supports
+
+    return scan_passes(track), spent[0], spent[1]
+
+
+def scan_passes(track: Callable[[list], list]) -> SizeScan:
+    """The scan's passes over the grid, given a way to track sizes.
+
+    The first pass tracks 105 x 68 and its grid neighbours
+    (:func:`arstream.pitch_size.grid_neighbours`); when one of them wins
+    (:func:`arstream.pitch_size.choose_size`), a second pass tracks that
+    one's neighbours not yet tracked, and the choice is made again over
+    every size tracked.
+
+    Parameters
+    ----------
+    track : callable(list of (length, width)) -> one list of line supports
+        per size (a value per frame, None where that size gave no camera),
+        all of the same frames
+
+    Returns
+    -------
+    SizeScan over every size tracked
+    """
     from geometry.pitch import PitchModel
 
     default = PitchModel()
-    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
     tracked: dict = {}
-    seconds = cpu = 0.0
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
     pick = None
     for _ in range(2):
         new = [s for s in todo if s not in tracked]
         if not new:
             break
-        with open_source() as src:
-            supports, summary = track_sizes(src, analysis, new, max_frames=limit, **kwargs)
-        tracked.update(zip(new, supports))
-        seconds += summary.seconds
-        cpu += summary.cpu_seconds
+        tracked.update(zip(new, track(new)))
         pick = choose_size(list(tracked), list(tracked.values()))  # (over every size tracked so far)
         if pick.chosen == 0:
             break
         todo = grid_neighbours(pick.size)
-    return pick, seconds, cpu
+    return pick
