@@ -32,7 +32,8 @@ too. :func:`choose_size` is the other way in, used by default on files
 other sizes (the grid :data:`SCAN_LENGTHS` x :data:`SCAN_WIDTHS`, one step
 from 105 x 68 along each axis, then one step from the best of those), and
 the size whose cameras lay the most of the markings on paint is kept when
-it wins by :data:`SCAN_MARGIN`.
+it wins: by :data:`SCAN_MARGIN` on the medians, or frame by frame
+throughout the clip (:func:`higher_throughout`).
 Line support (docs/evaluate.md) needs no ground truth and judges a whole clip:
 a wrong size leaves every view's far markings off their paint.
 
@@ -60,7 +61,7 @@ WIDTH_RANGE = (58.0, 80.0)
 
 #: a clip whose median line support at the default size is below this is
 #: tracked again at other sizes (:func:`needs_scan`): a scan costs time, not
-#: cameras (the default stays unless another size wins by :data:`SCAN_MARGIN`).
+#: cameras (the default stays unless another size wins, :func:`choose_size`).
 #: Clips of the right size score 0.98-1.00 on the shared real material at
 #: 720p and 0.99-1.00 on the synthetic presets; a 99.85 m pitch tracked as
 #: 105 m, 0.82; synthetic clips of other sizes 0.78-0.94
