@@ -285,6 +285,28 @@ def test_the_scan_s_passes_over_the_grid():
     assert scan_passes(track).chosen == 0 and len(asked) == 1  # nothing wins: one pass
 
 
+@pytest.mark.parametrize(
+    "clip, chosen",
+    [
+        ("real-multisport 5", (105.0, 72.0)),  # 105 x 72 higher in 7 of 8 seconds, by 0.014 on the medians
+        ("real-penalty 2", (105.0, 72.0)),  # 110 x 72 (second pass) ties it: the nearer stays
+        ("real-multisport 3 at 105 x 68", (105.0, 68.0)),  # a pitch of 105 x 68: no neighbour higher throughout
+        ("israel_league_wide_848x478_26", (105.0, 68.0)),  # 100 m higher in 6 s, 110 m in 3: the length is open
+        ("artificial_turf_multisport", (100.0, 68.0)),  # 0.997 against 0.850 on the medians
+    ],
+)
+def test_the_scan_on_tracked_clips(clip, chosen):
+    # the scan's trackers' line supports of five clips (tests/data/size_scan/README.md)
+    import json
+    from pathlib import Path
+
+    from arstream.pipeline.pitch_scan import scan_passes
+
+    rows = {r["clip"]: r for r in json.loads((Path(__file__).parent / "data" / "size_scan" / "supports.json").read_text())}
+    table = {tuple(s): sup for s, sup in zip(rows[clip]["sizes"], rows[clip]["supports"])}
+    assert scan_passes(lambda sizes: [table[s] for s in sizes]).size == chosen
+
+
 def test_choose_size_needs_enough_frames_and_matching_lists():
     from arstream.pitch_size import SCAN_MIN_FRAMES, choose_size
 
