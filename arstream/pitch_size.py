@@ -43,7 +43,7 @@ spot); pixels of the views' frames.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -52,7 +52,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -168,7 +168,10 @@ class PitchSize:
         tail = f"; {' and '.join(kept)} not constrained by the views: default kept" if kept else ""
         if self.scan is not None:
             L, W = self.scan.size
-            tail += f"; from {L:g} x {W:g}, {self.scan.describe()}"
+            if L not in SCAN_LENGTHS or W not in SCAN_WIDTHS:
+                # (no grid size won; the estimate from the default's views was judged against them)
+                L, W = self.scan.sizes[0]
+            tail += f"; from {_metres(L)} x {_metres(W)}, {self.scan.describe()}"
         return s + f" (estimated from {self.views} views{tail})"
 
     def to_dict(self) -> dict:
@@ -193,6 +196,8 @@ class SizeScan:
     coverage : tuple of float, each size's share of the frames with a camera
     frames : frames tracked at each size
     chosen : index into ``sizes`` of the size kept
+    supports : per size, the line support of each frame (None: no camera),
+        what the choice was made on (:func:`with_size` adds a size to it)
     """
 
     sizes: tuple
@@ -200,6 +205,7 @@ class SizeScan:
     coverage: tuple
     frames: int
     chosen: int
+    supports: tuple = field(default=(), repr=False, compare=False)
 
     @property
     def size(self) -> tuple[float, float]:
@@ -207,13 +213,18 @@ class SizeScan:
 
     def describe(self) -> str:
         """e.g. ``chosen by line support on 176 frames: 100 x 68 0.99, 105 x 68 0.82, 110 x 68 0.93``."""
-        parts = ", ".join(f"{L:g} x {W:g} {'-' if m is None else f'{m:.2f}'}" for (L, W), m in sorted(zip(self.sizes, self.median)))
+        parts = ", ".join(f"{_metres(L)} x {_metres(W)} {'-' if m is None else f'{m:.2f}'}" for (L, W), m in sorted(zip(self.sizes, self.median)))
         verb = "kept" if self.chosen == 0 else "chosen"
         return f"{verb} by line support on {self.frames} frames: {parts}"
 
     def to_dict(self) -> dict:
         r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
         return {"sizes": [[float(L), float(W)] for L, W in self.sizes], "median_support": [r(m) for m in self.median], "coverage": [r(c) for c in self.coverage], "frames": self.frames, "chosen": self.chosen}
+
+
+def _metres(v: float) -> str:
+    """A size in metres to the decimetre, without a trailing ``.0`` (``105``, ``106.6``)."""
+    return f"{v:.1f}".rstrip("0").rstrip(".")
 
 
 def _median(supports, min_frames: int = SCAN_MIN_FRAMES) -> float | None:
@@ -372,7 +383,26 @@ def choose_size(sizes, supports) -> SizeScan:
     for k in sorted(left, key=lambda k: (changed(k), -med[k])):
         if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
-    return SizeScan(sizes, med, cov, frames, chosen)
+    return SizeScan(sizes, med, cov, frames, chosen, tuple(list(x) for x in supports))
+
+
+def with_size(scan: SizeScan, size, supports) -> SizeScan:
+    """The choice made again with one more size (:func:`choose_size` over
+    ``scan``'s sizes and ``size``): e.g. the size estimated from the
+    default's own views, judged as the grid's sizes were.
+
+    Parameters
+    ----------
+    scan : SizeScan with its supports
+    size : (length, width) in metres
+    supports : ``size``'s line support per frame of the scan's frames (a
+        shorter list, whose tracker stopped, counts the rest as no camera)
+    """
+    if len(scan.supports) != len(scan.sizes):
+        raise ValueError("the scan carries no supports to judge another size against")
+    extra = list(supports)[: scan.frames]
+    extra += [None] * (scan.frames - len(extra))
+    return choose_size(tuple(scan.sizes) + (tuple(float(v) for v in size),), tuple(scan.supports) + (extra,))
 
 
 def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray, np.ndarray]:

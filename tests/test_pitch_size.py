@@ -307,6 +307,26 @@ def test_the_scan_on_tracked_clips(clip, chosen):
     assert scan_passes(lambda sizes: [table[s] for s in sizes]).size == chosen
 
 
+def test_with_size_judges_one_more_size():
+    # the scan kept the default; a size added later (the default's estimate) is
+    # judged by the same rule, on the same frames
+    from arstream.pitch_size import SizeScan, choose_size, with_size
+
+    base = _noisy(200, 7)
+    scan = choose_size([(105, 68), (110, 68)], [base, [b - 0.02 for b in base]])
+    assert scan.chosen == 0
+    got = with_size(scan, (106.6, 66.0), [b + 0.06 for b in base])
+    assert got.chosen == 2 and got.sizes[2] == (106.6, 66.0) and got.frames == 200
+    # its tracker stopped after 20 frames: the rest count as no camera, and it cannot win
+    short = with_size(scan, (106.6, 66.0), [b + 0.06 for b in base][:20])
+    assert short.chosen == 0 and short.coverage[2] == pytest.approx(0.1)
+    text = PitchSize(106.6, 66.0, 0.3, 0.6, source="estimated", views=6, scan=got).describe()
+    assert text.startswith("pitch 106.6 +- 0.3 x 66.0 +- 0.6 m (estimated from 6 views; from 105 x 68, chosen by line support on 200 frames: 105 x 68 "), text
+    assert f"106.6 x 66 {got.median[2]:.2f}, 110 x 68 " in text
+    with pytest.raises(ValueError, match="the scan carries no supports"):
+        with_size(SizeScan(((105.0, 68.0),), (0.9,), (1.0,), 30, 0), (100, 68), [0.9] * 30)
+
+
 def test_choose_size_needs_enough_frames_and_matching_lists():
     from arstream.pitch_size import SCAN_MIN_FRAMES, choose_size
 
@@ -385,6 +405,89 @@ def test_the_default_finds_an_odd_pitch(tmp_path):
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
     # the summary's times are all the runs' (the first, the scan's, the second, the last)
     assert s.seconds > 3 * f.seconds and s.cpu_seconds > 3 * f.cpu_seconds
+
+
+def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, monkeypatch):
+    # the 100 x 68 m clip, its scan held to sizes that fit it worse than 105 x 68
+    # (110 x 68, 105 x 72): no grid size wins. The size estimated from the
+    # default's own views is then tracked on the scan's frames and, backed by
+    # the paint better than the default, kept; a last run tracks the clip at it.
+    import arstream.pipeline.pitch_scan as pitch_scan
+    from arstream.evaluate import score_files
+    from arstream.pipeline import process
+    from arstream.synth import generate
+
+    monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
+    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
+    cams = tmp_path / "cams.jsonl"
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    scan = s.pitch["scan"]
+    assert s.pitch["source"] == "estimated" and scan["sizes"][:3] == [[105.0, 68.0], [110.0, 68.0], [105.0, 72.0]], s.pitch_text
+    assert scan["chosen"] == 3 and scan["sizes"][3] == pytest.approx([s.pitch["length"], s.pitch["width"]], abs=5e-4), s.pitch_text
+    assert scan["median_support"][3] >= scan["median_support"][0] + 0.05, s.pitch_text
+    assert abs(s.pitch["length"] - 100.0) <= 1.0 and abs(s.pitch["width"] - 68.0) <= 1.0, s.pitch_text
+    assert "; from 105 x 68, chosen by line support on 30 frames: " in s.pitch_text, s.pitch_text
+    assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    # the outputs are a run's at the estimate, every frame
+    given = tmp_path / "given.jsonl"
+    process(tmp_path / "clip" / "clip.mp4", cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
+    sc = score_files(tmp_path / "clip" / "truth.jsonl", cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
+    assert sc.coverage >= 0.95 and sc.median < 1.0, sc
+
+
+def test_an_estimate_the_paint_does_not_back_better_is_not_kept(tmp_path, monkeypatch):
+    # a 105 x 68 m clip scanned anyway: no grid size wins, the default's estimate
+    # lies within the noise of 105 x 68, and the first run's outputs stay
+    import arstream.pitch_size as pitch_size
+    from arstream.pipeline import process
+    from arstream.synth import generate
+
+    monkeypatch.setattr(pitch_size, "needs_scan", lambda *a, **k: True)
+    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD)
+    first = tmp_path / "first.jsonl"
+    process(tmp_path / "clip" / "clip.mp4", cameras_out=first, pitch=(105, 68), handle_signals=False)
+    cams = tmp_path / "cams.jsonl"
+    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    assert s.pitch["source"] == "default" and (s.pitch["length"], s.pitch["width"]) == (105.0, 68.0), s.pitch_text
+    assert s.pitch["scan"]["chosen"] == 0 and s.pitch_text.startswith("pitch 105.0 x 68.0 m (default; kept by line support"), s.pitch_text
+    assert cams.read_bytes() == first.read_bytes()
+
+
+@pytest.mark.parametrize("stop_in", [3, 5], ids=["during-the-estimate", "during-the-last-run"])
+def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_path, monkeypatch, stop_in):
+    # the scan held as above (one pass, the 2nd over the clip); SIGINT in the
+    # estimate's run (the 3rd) or in the last run at it (the 5th, after the
+    # check's 4th): the first run's complete outputs stay, and its summary
+    import os
+    import signal
+
+    import arstream.pipeline.pitch_scan as pitch_scan
+    from arstream.pipeline import Interrupted, process
+    from arstream.synth import generate
+
+    monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
+    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
+    clip = tmp_path / "clip" / "clip.mp4"
+    fixed = tmp_path / "fixed.jsonl"
+    process(clip, cameras_out=fixed, pitch=(105, 68), handle_signals=False)
+    passes = []
+
+    def progress(done, total):
+        if done == 1:
+            passes.append(0)
+        if len(passes) == stop_in and done == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    out, cams = tmp_path / "out" / "o.mp4", tmp_path / "out" / "c.jsonl"
+    out.parent.mkdir()
+    with pytest.raises(Interrupted) as e:
+        process(clip, out, cameras_out=cams, progress=progress)
+    s = e.value.summary
+    assert len(passes) == stop_in and s.interrupted == signal.SIGINT
+    assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
+    assert sorted(p.name for p in out.parent.iterdir()) == ["c.jsonl", "o.mp4"]
+    assert cams.read_bytes() == fixed.read_bytes()
 
 
 def _largest_gap(a, b, size) -> float:

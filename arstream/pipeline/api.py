@@ -318,7 +318,9 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     has its views, and its frames before were drawn at the grid's size (metres
     off: 110 x 64 for a 103.5 x 65 m pitch; tens of pixels where the markings
     are near the camera); so when the estimate is another size, a last run tracks the
-    whole clip at the estimate, as if it had been given. Each run after the
+    whole clip at the estimate, as if it had been given. When no grid size
+    wins, the size estimated from the default's own views may
+    (:func:`_estimate_from_default`). Each run after the
     first writes beside the outputs and replaces them only when it completes:
     stopped by a signal, the last complete run's outputs stay (and
     :class:`Interrupted` carries its summary). The summary's seconds and CPU
@@ -344,9 +346,7 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     first.seconds += scan_s
     first.cpu_seconds += scan_cpu
     if scan.chosen == 0:
-        size = PitchSize(*scan.sizes[0], source="default", views=scan.frames, scan=scan)
-        first.pitch, first.pitch_text = size.to_dict(), size.describe()
-        return first
+        return _estimate_from_default(input, output, cameras_out, first, an, run, scan)
     second, est = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(*scan.size), estimate_pitch=True)
     estimated = est is not None and est.source == "estimated"
     size = dataclasses.replace(est, scan=scan) if estimated else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
@@ -354,6 +354,61 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     if not estimated or (est.length, est.width) == tuple(scan.size):
         return second
     last, _ = _run_beside(input, output, cameras_out, second, run, pitch=size.model(), estimate_pitch=False)
+    last.pitch, last.pitch_text = size.to_dict(), size.describe()
+    return last
+
+
+def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analysis, run: dict, scan) -> Summary:
+    """No size of the scan's grid won (:func:`_rescan`): a pitch between its
+    points (106.5 x 66 m: one step along either axis fixes one dimension and
+    spoils the other) may still fit better. The clip is tracked once more
+    from the default with the size estimated from its own views (as
+    ``pitch="auto"``; no outputs), and that estimate is judged against the
+    grid's sizes on the scan's frames by the scan's own rule
+    (:func:`arstream.pipeline.pitch_scan.check_size`): on real views the
+    estimate can be metres off (``docs/real-footage.md``), and only a size
+    the paint backs better than the default is kept. Kept, a last run tracks
+    the whole clip at it (written beside the outputs as in :func:`_rescan`);
+    otherwise the first run's outputs stay, and the summary says the default
+    was kept, with the estimate's line support among the sizes tried."""
+    from arstream.pipeline.pitch_scan import check_size
+    from arstream.pitch_size import PitchSize
+    from geometry.pitch import PitchModel
+
+    def kept(s) -> Summary:
+        size = PitchSize(*s.sizes[0], source="default", views=s.frames, scan=s)
+        first.pitch, first.pitch_text = size.to_dict(), size.describe()
+        return first
+
+    if scan.median[0] is None:  # (the scan's trackers could not follow the clip: nothing to judge by)
+        return kept(scan)
+    single = run["threads"] == 1
+    try:
+        auto, _, _, est = _process_once(input, None, None, pitch=PitchModel(), estimate_pitch=True, **run)
+        first.seconds += auto.seconds
+        first.cpu_seconds += auto.cpu_seconds
+        if est is None or est.source != "estimated" or (est.length, est.width) == tuple(scan.sizes[0]):
+            return kept(scan)
+        check, check_s, check_cpu = check_size(
+            lambda: _open(input, threads=not single),
+            an,
+            scan,
+            (est.length, est.width),
+            detect_stage=lambda st: _overlapped(st, run["overlap"] and not single),
+            max_frames=run["max_frames"],
+            progress=run["progress"],
+            handle_signals=run["handle_signals"],
+            decode_nice=WORKER_NICE,
+        )
+    except Interrupted as e:
+        first.interrupted = e.signum
+        raise Interrupted(e.signum, first) from None
+    first.seconds += check_s
+    first.cpu_seconds += check_cpu
+    if check.chosen != len(check.sizes) - 1:
+        return kept(check)
+    size = dataclasses.replace(est, scan=check)
+    last, _ = _run_beside(input, output, cameras_out, first, run, pitch=size.model(), estimate_pitch=False)
     last.pitch, last.pitch_text = size.to_dict(), size.describe()
     return last
 

@@ -19,10 +19,10 @@ from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, grid_neighbours
+from arstream.pitch_size import SizeScan, choose_size, grid_neighbours, with_size
 from arstream.support import frame_mask, line_support, marking_points
 
-__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "scan_passes", "SCAN_MAX_FRAMES"]
+__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
 
 #: most frames a scan tracks (a clip's first 30 s at 25 fps: the views of
 #: half a minute of play judge the size as a match's would, and each pass
@@ -178,6 +178,32 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
         return supports
 
     return scan_passes(track), spent[0], spent[1]
+
+
+def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float]:
+    """One more size judged against a scan's: ``size`` tracked on the scan's
+    frames by the scan's tracker, and the choice made again over every size
+    (:func:`arstream.pitch_size.with_size`).
+
+    Parameters
+    ----------
+    open_source, analysis, max_frames, kwargs : as for :func:`scan_sizes`
+    scan : the SizeScan of :func:`scan_sizes` on this clip
+    size : (length, width) in metres, e.g. the size estimated from the
+        default's views
+
+    Returns
+    -------
+    (SizeScan over the scan's sizes and ``size``, wall seconds, CPU seconds)
+
+    Raises
+    ------
+    Interrupted : stopped by a signal
+    """
+    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+    with open_source() as src:
+        supports, summary = track_sizes(src, analysis, [tuple(size)], max_frames=limit, **kwargs)
+    return with_size(scan, size, supports[0]), summary.seconds, summary.cpu_seconds
 
 
 def scan_passes(track: Callable[[list], list]) -> SizeScan:
