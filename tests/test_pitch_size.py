@@ -490,6 +490,22 @@ def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_p
     assert cams.read_bytes() == fixed.read_bytes()
 
 
+@pytest.mark.parametrize(
+    "length, width, length_sd, width_sd, within",
+    [
+        (105.3, 68.0, 0.2, None, True),  # 1.5 sd off; the width left open (the prior's)
+        (105.5, 68.0, 0.2, None, False),  # 2.5 sd off
+        (105.0, 68.9, None, 0.5, True),
+        (105.0, 69.2, None, 0.5, False),
+        (105.0, 68.5, None, None, False),  # a dimension without an sd is the prior's, or another size
+    ],
+)
+def test_an_estimate_within_its_noise_of_the_default_is_no_other_size(length, width, length_sd, width_sd, within):
+    from arstream.pipeline.api import _within_noise
+
+    assert _within_noise(PitchSize(length, width, length_sd, width_sd, source="estimated"), (105.0, 68.0)) is within
+
+
 def _largest_gap(a, b, size) -> float:
     """Largest distance (px) between two cameras files' projections of the
     105 x 68 markings over their frames; inf where one has a camera and the other not."""

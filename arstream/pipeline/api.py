@@ -365,7 +365,8 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     from the default with the size estimated from its own views (as
     ``pitch="auto"``; no outputs), and that estimate is judged against the
     grid's sizes on the scan's frames by the scan's own rule
-    (:func:`arstream.pipeline.pitch_scan.check_size`): on real views the
+    (:func:`arstream.pipeline.pitch_scan.check_size`; an estimate within two
+    standard deviations of the default is no other size): on real views the
     estimate can be metres off (``docs/real-footage.md``), and only a size
     the paint backs better than the default is kept. Kept, a last run tracks
     the whole clip at it (written beside the outputs as in :func:`_rescan`);
@@ -387,7 +388,7 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         auto, _, _, est = _process_once(input, None, None, pitch=PitchModel(), estimate_pitch=True, **run)
         first.seconds += auto.seconds
         first.cpu_seconds += auto.cpu_seconds
-        if est is None or est.source != "estimated" or (est.length, est.width) == tuple(scan.sizes[0]):
+        if est is None or est.source != "estimated" or _within_noise(est, scan.sizes[0]):
             return kept(scan)
         check, check_s, check_cpu = check_size(
             lambda: _open(input, threads=not single),
@@ -411,6 +412,16 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     last, _ = _run_beside(input, output, cameras_out, first, run, pitch=size.model(), estimate_pitch=False)
     last.pitch, last.pitch_text = size.to_dict(), size.describe()
     return last
+
+
+def _within_noise(est, size) -> bool:
+    """Whether an estimated PitchSize lies within two of its standard
+    deviations of ``size`` (length, width) along each dimension (one the
+    views left open is the prior's): no other size to judge."""
+    for v, sd, ref in ((est.length, est.length_sd, size[0]), (est.width, est.width_sd, size[1])):
+        if abs(v - ref) > (2.0 * sd if sd is not None else 1e-9):
+            return False
+    return True
 
 
 def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool) -> tuple[Summary, object]:
