@@ -64,7 +64,10 @@ WIDTH_RANGE = (58.0, 80.0)
 #: cameras (the default stays unless another size wins, :func:`choose_size`).
 #: Clips of the right size score 0.98-1.00 on the shared real material at
 #: 720p and 0.99-1.00 on the synthetic presets; a 99.85 m pitch tracked as
-#: 105 m, 0.82; synthetic clips of other sizes 0.78-0.94
+#: 105 m, 0.82; synthetic clips of other sizes 0.78-0.94. The realistic
+#: presets (seeds 1-7 at their drawn sizes, 1-5 at 105 x 68; bench/README.md
+#: "Stop 50") overlap: 105 x 68 0.955-0.995, other sizes 0.77-0.97 (3 of 28
+#: at 0.95-0.97, 2-4 m off); 0.97 would scan 7 of the 20 at 105 x 68 too
 SCAN_BELOW = 0.95
 #: how much higher another size's median line support must be to replace
 #: the default (:func:`choose_size`): the same clip tracked at sizes that fit
