@@ -22,7 +22,11 @@ verdict: at 105 x 68, *false* when the scan moves it; at another size,
 *nearer* / *kept* / *further* by the grid distance to the truth (metres over
 the grid's step, the larger of the two dimensions). The scan runs in
 ``process`` only when the first run's median support is below
-:data:`arstream.pitch_size.SCAN_BELOW`; here every clip is scanned.
+:data:`arstream.pitch_size.SCAN_BELOW`; here every clip is scanned. When no
+grid size wins, ``process`` goes on to judge the size estimated from
+105 x 68's own views (``arstream.pipeline.api._estimate_from_default``);
+that needs a run per clip and is not replayed here (``bench/real_synth.py``
+measures it end to end).
 
 Usage::
 
