@@ -412,12 +412,11 @@ def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, mo
     # (110 x 68, 105 x 72): no grid size wins. The size estimated from the
     # default's own views is then tracked on the scan's frames and, backed by
     # the paint better than the default, kept; a last run tracks the clip at it.
-    import arstream.pipeline.pitch_scan as pitch_scan
     from arstream.evaluate import score_files
     from arstream.pipeline import process
     from arstream.synth import generate
 
-    monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
+    _hold_grid(monkeypatch)
     generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
     cams = tmp_path / "cams.jsonl"
     s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
@@ -459,14 +458,35 @@ def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_p
     # the scan held as above (one pass, the 2nd over the clip); SIGINT in the
     # estimate's run (the 3rd) or in the last run at it (the 5th, after the
     # check's 4th): the first run's complete outputs stay, and its summary
+    import signal
+
+    _hold_grid(monkeypatch)
+    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in)
+    s = e.summary
+    assert len(passes) == stop_in and s.interrupted == signal.SIGINT
+    assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
+    assert sorted(p.name for p in cams.parent.iterdir()) == ["c.jsonl", "o.mp4"]
+    assert cams.read_bytes() == fixed.read_bytes()
+
+
+def _hold_grid(monkeypatch):
+    """The scan's grid held to two sizes that fit a 100 x 68 m pitch worse than 105 x 68."""
+    import arstream.pipeline.pitch_scan as pitch_scan
+
+    monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
+
+
+def _interrupted_in_pass(tmp_path, stop_in):
+    """A 100 x 68 m synthetic clip processed with no size given, SIGINT sent at
+    frame 5 of its ``stop_in``-th pass over the clip: (the Interrupted, the
+    passes begun, the run's cameras file (beside ``o.mp4``), the cameras file
+    of a run at 105 x 68)."""
     import os
     import signal
 
-    import arstream.pipeline.pitch_scan as pitch_scan
     from arstream.pipeline import Interrupted, process
     from arstream.synth import generate
 
-    monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
     generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
     clip = tmp_path / "clip" / "clip.mp4"
     fixed = tmp_path / "fixed.jsonl"
@@ -483,11 +503,7 @@ def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_p
     out.parent.mkdir()
     with pytest.raises(Interrupted) as e:
         process(clip, out, cameras_out=cams, progress=progress)
-    s = e.value.summary
-    assert len(passes) == stop_in and s.interrupted == signal.SIGINT
-    assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
-    assert sorted(p.name for p in out.parent.iterdir()) == ["c.jsonl", "o.mp4"]
-    assert cams.read_bytes() == fixed.read_bytes()
+    return e.value, passes, cams, fixed
 
 
 @pytest.mark.parametrize(
@@ -534,31 +550,13 @@ def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in
     # run (the 4th) goes on: Interrupted carries the first run's summary, and
     # its outputs, complete, are what is on disk (nothing of the second run's);
     # during the last run (the 5th, at the second's estimate), the second's
-    import os
     import signal
 
-    from arstream.pipeline import Interrupted, process
-    from arstream.synth import generate
-
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
-    clip = tmp_path / "clip" / "clip.mp4"
-    fixed = tmp_path / "fixed.jsonl"
-    process(clip, cameras_out=fixed, pitch=(105, 68), handle_signals=False)
-    passes = []
-
-    def progress(done, total):
-        if done == 1:
-            passes.append(0)
-        if len(passes) == stop_in and done == 5:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    out, cams = tmp_path / "out" / "o.mp4", tmp_path / "out" / "c.jsonl"
-    out.parent.mkdir()
-    with pytest.raises(Interrupted) as e:
-        process(clip, out, cameras_out=cams, progress=progress)
-    s = e.value.summary
+    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in)
+    s = e.summary
+    out = cams.parent / "o.mp4"
     assert len(passes) == stop_in
-    assert e.value.signum == signal.SIGINT and s.interrupted == signal.SIGINT
+    assert e.signum == signal.SIGINT and s.interrupted == signal.SIGINT
     assert sorted(p.name for p in out.parent.iterdir()) == ["c.jsonl", "o.mp4"]
     if stop_in < 5:
         assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch

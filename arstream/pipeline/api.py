@@ -329,17 +329,8 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     from arstream.pitch_size import PitchSize
     from geometry.pitch import PitchModel
 
-    single = run["threads"] == 1
     try:
-        scan, scan_s, scan_cpu = scan_sizes(
-            lambda: _open(input, threads=not single),
-            an,
-            detect_stage=lambda st: _overlapped(st, run["overlap"] and not single),
-            max_frames=run["max_frames"],
-            progress=run["progress"],
-            handle_signals=run["handle_signals"],
-            decode_nice=WORKER_NICE,
-        )
+        scan, scan_s, scan_cpu = scan_sizes(analysis=an, **_scan_options(input, run))
     except Interrupted as e:
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None
@@ -356,6 +347,21 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     last, _ = _run_beside(input, output, cameras_out, second, run, pitch=size.model(), estimate_pitch=False)
     last.pitch, last.pitch_text = size.to_dict(), size.describe()
     return last
+
+
+def _scan_options(input, run: dict) -> dict:
+    """The keyword arguments of the scan's passes over ``input``
+    (:func:`arstream.pipeline.pitch_scan.scan_sizes`, ``check_size``) for a
+    run of :func:`process` with options ``run``."""
+    single = run["threads"] == 1
+    return dict(
+        open_source=lambda: _open(input, threads=not single),
+        detect_stage=lambda st: _overlapped(st, run["overlap"] and not single),
+        max_frames=run["max_frames"],
+        progress=run["progress"],
+        handle_signals=run["handle_signals"],
+        decode_nice=WORKER_NICE,
+    )
 
 
 def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analysis, run: dict, scan) -> Summary:
@@ -383,24 +389,13 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
 
     if scan.median[0] is None:  # (the scan's trackers could not follow the clip: nothing to judge by)
         return kept(scan)
-    single = run["threads"] == 1
     try:
         auto, _, _, est = _process_once(input, None, None, pitch=PitchModel(), estimate_pitch=True, **run)
         first.seconds += auto.seconds
         first.cpu_seconds += auto.cpu_seconds
         if est is None or est.source != "estimated" or _within_noise(est, scan.sizes[0]):
             return kept(scan)
-        check, check_s, check_cpu = check_size(
-            lambda: _open(input, threads=not single),
-            an,
-            scan,
-            (est.length, est.width),
-            detect_stage=lambda st: _overlapped(st, run["overlap"] and not single),
-            max_frames=run["max_frames"],
-            progress=run["progress"],
-            handle_signals=run["handle_signals"],
-            decode_nice=WORKER_NICE,
-        )
+        check, check_s, check_cpu = check_size(scan=scan, size=(est.length, est.width), analysis=an, **_scan_options(input, run))
     except Interrupted as e:
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None

@@ -139,6 +139,11 @@ def track_sizes(source, analysis: Analysis, sizes, *, detect_stage: Callable[[De
     return scan.supports, pipe.run(handle_signals=handle_signals)
 
 
+def _frames_limit(max_frames: int | None) -> int:
+    """Frames a scan's pass tracks: the run's ``max_frames`` (None: all), at most :data:`SCAN_MAX_FRAMES`."""
+    return SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+
+
 def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float]:
     """Choose the pitch's size of a clip that fits 105 x 68 poorly.
 
@@ -167,7 +172,7 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     ------
     Interrupted : stopped by a signal
     """
-    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+    limit = _frames_limit(max_frames)
     spent = [0.0, 0.0]
 
     def track(sizes):
@@ -200,7 +205,7 @@ def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, 
     ------
     Interrupted : stopped by a signal
     """
-    limit = SCAN_MAX_FRAMES if max_frames is None else min(int(max_frames), SCAN_MAX_FRAMES)
+    limit = _frames_limit(max_frames)
     with open_source() as src:
         supports, summary = track_sizes(src, analysis, [tuple(size)], max_frames=limit, **kwargs)
     return with_size(scan, size, supports[0]), summary.seconds, summary.cpu_seconds
