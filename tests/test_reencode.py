@@ -14,7 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 
-from real_perturbed import _area_weights, area_scale, reencode  # noqa: E402
+from real_perturbed import _area_weights, area_scale, linear_scale, reencode, scale_plane  # noqa: E402
 
 
 @pytest.mark.parametrize("n_in, n_out", [(1280, 848), (720, 478), (640, 424), (360, 239), (7, 3), (10, 10), (9, 3)])
@@ -47,6 +47,35 @@ def test_area_scale_matches_opencv_within_its_rounding():
     for size in ((848, 478), (640, 360), (1024, 576)):
         d = np.abs(area_scale(p, size).astype(int) - cv2.resize(p, size, interpolation=cv2.INTER_AREA).astype(int))
         assert d.max() <= 1, size
+
+
+def test_linear_scale_interpolates_between_pixel_centres():
+    # 2 -> 4 samples: output centres at input positions -0.25, 0.25, 0.75, 1.25
+    # (the ends clamped): 10, 10 + 0.25 * 30, 10 + 0.75 * 30, 40, rounded half up
+    p = np.array([[10, 40]], np.uint8).repeat(2, axis=0)
+    np.testing.assert_array_equal(linear_scale(p, (4, 2)), [[10, 18, 33, 40]] * 2)
+    np.testing.assert_array_equal(linear_scale(np.full((720, 1280), 77, np.uint8), (1920, 1080)), 77)
+    np.testing.assert_array_equal(linear_scale(p, (2, 2)), p)  # the same size: a copy
+    with pytest.raises(ValueError, match="only scales up"):
+        linear_scale(p, (1, 2))
+
+
+def test_linear_scale_matches_opencv_within_its_rounding():
+    # OpenCV's INTER_LINEAR (same pixel-centre alignment) rounds its fixed-point
+    # weights to 1/2048: within one level of the exact interpolation
+    rng = np.random.default_rng(8)
+    p = rng.integers(0, 256, (720, 1280)).astype(np.uint8)
+    d = np.abs(linear_scale(p, (1920, 1080)).astype(int) - cv2.resize(p, (1920, 1080), interpolation=cv2.INTER_LINEAR).astype(int))
+    assert d.max() <= 1
+
+
+def test_scale_plane_scales_down_by_area_and_up_bilinearly():
+    rng = np.random.default_rng(9)
+    p = rng.integers(0, 256, (6, 9)).astype(np.uint8)
+    np.testing.assert_array_equal(scale_plane(p, (3, 2)), area_scale(p, (3, 2)))
+    np.testing.assert_array_equal(scale_plane(p, (18, 12)), linear_scale(p, (18, 12)))
+    with pytest.raises(ValueError, match="in both directions"):
+        scale_plane(p, (18, 4))
 
 
 def test_reencode_makes_the_same_bytes_twice(tmp_path):
