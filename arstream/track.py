@@ -661,6 +661,9 @@ class Tracker:
                 self._paint = True
                 self._kf = None
                 tripod = self._tripod()
+                if tripod is None and pred_cam is not None:
+                    # no tripod centre yet, but a camera a moment ago: the same tripod
+                    tripod = pred_cam.center
                 far = tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break
                 if self.centre is not None or far:
                     # the same tripod? the frozen centre, unless the frame's
