@@ -173,7 +173,8 @@ def stills_main(args) -> int:
                 f"| {int(np.sum(errs > 20))} | {np.median([r['seconds'] for r in got]):.2f} |",
                 flush=True,
             )
-            wrong = [f"{r['clip']} frame {r['frame']}: {r['error_1280']:.1f}" for r in reg if r["error_1280"] is None or r["error_1280"] > 5]
+            # (a camera with no marking in view scores no error: counted as wrong)
+            wrong = [f"{r['clip']} frame {r['frame']}: {'no marking in view' if r['error_1280'] is None else format(r['error_1280'], '.1f')}" for r in reg if r["error_1280"] is None or r["error_1280"] > 5]
             if wrong:
                 print("|  | further than 5 px: " + "; ".join(wrong) + " |  |  |  |  |  |  |")
     if args.json:
