@@ -660,10 +660,7 @@ class Tracker:
                 self.stats["paint_inits"] += 1
                 self._paint = True
                 self._kf = None
-                tripod = self._tripod()
-                if tripod is None and pred_cam is not None:
-                    # no tripod centre yet, but a camera a moment ago: the same tripod
-                    tripod = pred_cam.center
+                tripod = self._tripod(pred_cam)
                 far = tripod is not None and np.linalg.norm(r.camera.center - tripod) > self.cfg.centre_break
                 if self.centre is not None or far:
                     # the same tripod? the frozen centre, unless the frame's
@@ -1162,11 +1159,17 @@ class Tracker:
             return rp, sp
         return None
 
-    def _tripod(self) -> np.ndarray | None:
+    def _tripod(self, recent: Camera | None = None) -> np.ndarray | None:
         """The centre a fresh camera is checked against (the same tripod?): the
         frozen one, else the one given up with a camera its paint stopped
-        backing (:meth:`reset`'s ``wrong``), else None."""
-        return self.centre if self.centre is not None else self._given_up
+        backing (:meth:`reset`'s ``wrong``), else the centre of ``recent``
+        (the filter's prediction: a camera a moment ago, before any centre
+        was frozen), else None."""
+        if self.centre is not None:
+            return self.centre
+        if self._given_up is not None:
+            return self._given_up
+        return None if recent is None else recent.center
 
     def _another_camera(self, index: int, cam: Camera) -> bool:
         """Is a fresh camera far from the tripod centre, which the frozen centre

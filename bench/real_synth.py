@@ -81,6 +81,15 @@ def run_one(preset: str, seed: int, frames: int, workdir: Path) -> dict:
     return {"clip": f"{preset} {seed}", **row, "pitch_source": used.get("source", "default"), "seconds": seconds}
 
 
+def _error_1280(truth: dict, got: Camera, size, truth_pitch: PitchModel, pts, moved) -> float | None:
+    """The mean error of one frame's camera ``got`` against its truth record,
+    marking for marking (``pts``, ``moved``: :func:`arstream.pitch_size.corresponding_samples`
+    of the truth's pitch and the run's), in px of the frame shown 1280 wide;
+    None with no marking in view."""
+    fe = frame_error(Camera.from_dict(truth), got, size, pts, truth_pitch.symmetries, moved)
+    return None if fe is None else fe.mean * 1280.0 / size[0]
+
+
 def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
     """A run's cameras (``cameras.jsonl``, made at ``run_pitch``) against the
     clip's truth, marking for marking: the table's figures."""
@@ -97,9 +106,9 @@ def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
         p = by_frame.get(int(t["frame"]))
         if t.get("K") is None or not t.get("visible_pitch", True) or p is None or p.get("K") is None or p.get("status") == "lost":
             continue
-        fe = frame_error(Camera.from_dict(t), Camera.from_dict(p), size, pts, truth_pitch.symmetries, moved)
-        if fe is not None:
-            means.append(fe.mean * 1280.0 / size[0])
+        err = _error_1280(t, Camera.from_dict(p), size, truth_pitch, pts, moved)
+        if err is not None:
+            means.append(err)
     means = np.array(means)
     n = whole.pitch_frames
     return {
@@ -144,10 +153,7 @@ def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, d
             t0 = time.perf_counter()
             est = register_image(frame.to_ndarray(format="bgr24"), pixel_aspect=aspect, pitch=run_pitch)
             seconds = time.perf_counter() - t0
-            err = None
-            if est.camera is not None:
-                fe = frame_error(Camera.from_dict(t), est.camera, size, pts, truth_pitch.symmetries, moved)
-                err = None if fe is None else fe.mean * 1280.0 / size[0]
+            err = None if est.camera is None else _error_1280(t, est.camera, size, truth_pitch, pts, moved)
             rows.append({"clip": f"{preset} {seed}", "frame": k, "registered": est.camera is not None, "error_1280": err, "reason": est.info.get("reason"), "seconds": seconds})
     return rows
 
