@@ -18,11 +18,14 @@ registration of a single still.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 
 from arstream.detect.paint import PAINT_CONTRAST, paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
+from arstream.pitch_size import PitchSize, estimate_view_size
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
 from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
@@ -581,7 +584,7 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
     return None
 
 
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7) -> CameraEstimate:
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
     enough line support). Returns a "lost" estimate when nothing fits.
@@ -598,6 +601,11 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     With the frame, the detector's camera is
     judged by its paint even below INIT_ACCEPT (the ridge detector's recall
     on a real frame). The support is in ``info["support"]``.
+
+    With ``estimate_size`` (and the frame), ``pitch`` is a prior, not a
+    fact: the size the view constrains is estimated with the camera
+    (:func:`size_from_view`) and the camera made with it; the size is in
+    ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
     """
     W, H = size
     pitch = pitch or PitchModel()
@@ -658,15 +666,68 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
+    camera = r.camera
     info = {"rms": r.rms, "n_visible": r.n_visible}
+    if estimate_size and image is not None:
+        camera, info["pitch"], sup = size_from_view(camera, sup, view, size, pitch, min_support)
     if sup is not None:
         info["support"] = sup
-    return CameraEstimate(0, 0.0, "ok", r.camera, r.confidence, info)
+    return CameraEstimate(0, 0.0, "ok", camera, r.confidence, info)
+
+
+def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7):
+    """A still's pitch size and its camera (:func:`register_frame` with
+    ``estimate_size``).
+
+    The size the view constrains is estimated with the camera from the
+    frame's paint pixels (:func:`arstream.pitch_size.estimate_view_size`,
+    ``pitch`` as the prior). The estimate is kept when the frame's paint
+    backs its camera (:func:`paint_verdict` at the estimated size) with a
+    line support no lower than ``camera``'s at ``pitch`` (``support``): on a
+    real frame paint the markings do not cover (the boards, another sport's
+    lines) can draw the fit off, and line support, not the fit's own
+    residuals, judges a camera.
+
+    Parameters
+    ----------
+    camera : Camera of the frame at ``pitch``, backed by its paint (frame pixels)
+    support : its line support on ``view``'s white paint
+    view : PaintView of the frame
+    size : (width, height) of the frame, pixels
+    pitch : PitchModel the camera was made at
+
+    Returns
+    -------
+    (Camera, PitchSize, support): the estimate's camera, size and support, or
+    ``camera``, ``pitch``'s size (source "default") and ``support``.
+    """
+    kept = (camera, PitchSize(pitch.length, pitch.width, source="default", views=1), support)
+    if support is None:
+        return kept
+    try:
+        got = estimate_view_size(camera, view.points, size, pitch)
+    except ValueError:
+        return kept
+    if not got.cameras:
+        return kept
+    other = got.model(pitch.line_width)
+    sup, spread = backed_support(got.cameras[0], view.bright, other)
+    if sup is None or sup < support or paint_verdict(got.cameras[0], sup, spread, view, size, other, min_support, MIN_SIDES) is not None:
+        return kept
+    # (the camera is returned on its own: the size's copy would be in the frame's pixels it was fitted in)
+    return got.cameras[0], replace(got, cameras=()), sup
 
 
 def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None) -> CameraEstimate:
     """``arstream register`` on one BGR frame: the camera of the frame (frame
     pixels) or a "lost" estimate with the reason.
+
+    ``pitch`` is the pitch's size where it is known. Without it the size is
+    a per-still unknown: the camera is made at 105 x 68 m, then the size the
+    view constrains is estimated with it (:func:`size_from_view`). The size
+    the camera was made at is in ``info["pitch"]``
+    (:class:`arstream.pitch_size.PitchSize`: "given", "estimated" or
+    "default").
 
     The picture inside black bars (:func:`arstream.imaging.active_area`) is
     analysed on its own, with the frame's principal point (its centre), at
@@ -686,7 +747,9 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     # (square pixels for the solver: a frame of other pixels stretched, bicubic)
     frame = cv2.resize(image, an.scaled, interpolation=cv2.INTER_CUBIC) if an.scaling else image
     work = np.ascontiguousarray(frame[y0:y1, x0:x1]) if an.cropped else frame
-    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch)
+    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch, estimate_size=pitch is None)
+    if pitch is not None and est.camera is not None:
+        est.info["pitch"] = PitchSize(pitch.length, pitch.width, source="given")
     if est.camera is None:
         return est
     return CameraEstimate(est.frame, est.pts, est.status, an.camera(est.camera), est.confidence, est.info)

@@ -52,12 +52,23 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
 LENGTH_RANGE = (95.0, 115.0)
 WIDTH_RANGE = (58.0, 80.0)
+
+#: a still's size (:func:`estimate_view_size`) before its view is seen: a
+#: Gaussian about 105 x 68 m with these standard deviations (metres) of the
+#: length and width. Top-level pitches are about 100-110 x 64-75 m (DESIGN.md
+#: 5b), within 1.7 of them of 105 x 68
+VIEW_PRIOR_SD = (3.0, 3.0)
+#: a dimension of a still's size whose posterior standard deviation is over
+#: this share of the prior's is not constrained by the view (the view gives
+#: less than three quarters of what is then known of it) and keeps the
+#: prior's value
+VIEW_CONSTRAINS = 0.5
 
 #: a clip whose median line support at the default size is below this is
 #: tracked again at other sizes (:func:`needs_scan`): a scan costs time, not
@@ -168,14 +179,14 @@ class PitchSize:
         if self.source == "scanned":
             return s + f" ({self.scan.describe()})"
         kept = [n for n, c in zip(("length", "width"), self.constrained) if not c]
-        tail = f"; {' and '.join(kept)} not constrained by the views: default kept" if kept else ""
+        tail = f"; {' and '.join(kept)} not constrained by the view{'s' if self.views != 1 else ''}: default kept" if kept else ""
         if self.scan is not None:
             L, W = self.scan.size
             if L not in SCAN_LENGTHS or W not in SCAN_WIDTHS:
                 # (no grid size won; the estimate from the default's views was judged against them)
                 L, W = self.scan.sizes[0]
             tail += f"; from {_metres(L)} x {_metres(W)}, {self.scan.describe()}"
-        return s + f" (estimated from {self.views} views{tail})"
+        return s + f" (estimated from {self.views} view{'s' if self.views != 1 else ''}{tail})"
 
     def to_dict(self) -> dict:
         """JSON-ready: length, width, their sd (null where not estimated), source,
@@ -550,3 +561,71 @@ def estimate_pitch_size(
             return PitchSize(length, width, sd[0], sd[1], "estimated", len(views), np.asarray(C), tuple(cams), rms)
         free = [free[d] and now[d] for d in range(2)]
     return PitchSize(L0, W0, None, None, "estimated", len(views), None, (), None)
+
+
+def estimate_view_size(
+    camera: Camera,
+    points: np.ndarray,
+    size,
+    prior: PitchModel | None = None,
+    *,
+    prior_sd: tuple[float, float] = VIEW_PRIOR_SD,
+    radii=(8.0, 4.0, 2.5),
+    max_points: int = 400,
+) -> PitchSize:
+    """The pitch's length and width from one view (a still), with its camera.
+
+    One view fixes a dimension where markings whose size Law 1 fixes (the
+    centre circle, the penalty and goal areas, the penalty arc) are seen
+    together with markings the dimension places: the width with both
+    touchlines, or a touchline and a penalty area; the length with the
+    halfway line or the circle and a goal line, penalty area or arc.
+
+    The camera (its centre, rotation, focal length and lens term) and the
+    size are refined jointly to the frame's paint pixels
+    (:func:`arstream.tripod.fit_tripod` with one view), under a Gaussian
+    prior about ``prior``'s size with ``prior_sd`` (:data:`VIEW_PRIOR_SD`):
+    a direction the view leaves open stays at the prior, where a fit without
+    it drifts (a pitch 53 m long on a view of one half). A dimension whose
+    posterior standard deviation is over :data:`VIEW_CONSTRAINS` of the
+    prior's is not constrained by the view: it is fixed at the prior's value
+    and the rest refitted.
+
+    Parameters
+    ----------
+    camera : Camera of the view under ``prior`` (frame pixels)
+    points : (M, 2) float64, the frame's paint pixels
+    size : (width, height) of the frame, pixels
+    prior : PitchModel the camera was made with (default 105 x 68 m)
+    prior_sd : (length sd, width sd) metres
+    radii : px, the successive association radii
+    max_points : model samples in view used per round, evenly thinned
+
+    Returns
+    -------
+    PitchSize, ``source`` "estimated" (``views`` 1, ``cameras`` the refined
+    camera, ``length_sd``/``width_sd`` the posterior's, None where not
+    constrained), or the prior's size with ``source`` "default" and no
+    camera where the view constrains neither dimension.
+
+    Raises
+    ------
+    ValueError
+        Too few of the markings in view matched to the paint.
+    """
+    prior = prior or PitchModel()
+    model = ModelSamples.from_pitch(prior, 0.5)
+    derivatives = size_derivatives(prior, model)
+    index = LineIndex(np.asarray(points, np.float64).reshape(-1, 2))
+    free = [True, True]
+    while any(free):
+        fit = fit_tripod([camera], [index], [size], model, camera.center, prior, derivatives=derivatives, free=free, radii=radii, max_points=max_points, size_prior_sd=prior_sd)
+        now = [free[d] and fit.size_sd[d] <= VIEW_CONSTRAINS * prior_sd[d] for d in range(2)]
+        if now == free:
+            inside = LENGTH_RANGE[0] <= fit.length <= LENGTH_RANGE[1] and WIDTH_RANGE[0] <= fit.width <= WIDTH_RANGE[1] and fit.width < fit.length
+            if not inside:
+                break
+            sd = [fit.size_sd[d] if free[d] else None for d in range(2)]
+            return PitchSize(fit.length, fit.width, sd[0], sd[1], "estimated", 1, fit.centre, fit.cameras, fit.rms)
+        free = now
+    return PitchSize(prior.length, prior.width, source="default", views=1)

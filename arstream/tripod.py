@@ -98,6 +98,7 @@ def fit_tripod(
     max_points: int = 400,
     seed_x: np.ndarray | None = None,
     systematic_px: float = 1.0,
+    size_prior_sd: tuple[float, float] | None = None,
 ) -> TripodFit:
     """Views of one tripod camera refined jointly to their frames' paint.
 
@@ -127,6 +128,12 @@ def fit_tripod(
     seed_x : a parameter vector to start from (as :attr:`TripodFit.x`)
     systematic_px : px, how far each marking of each view may sit off its
         paint as a whole (added to the size's standard deviation)
+    size_prior_sd : (length sd, width sd) metres, a Gaussian prior on the free
+        dimensions about ``pitch``'s, each as one residual of ``(L - L0) /
+        sd`` (px in the fit, at the loss's 1 px scale): a direction the views
+        leave open stays at the prior instead of drifting, and the size's
+        standard deviation is the posterior's (never over the prior's).
+        None: no prior
 
     Returns
     -------
@@ -177,6 +184,13 @@ def fit_tripod(
         C, _, _, kappa = unpack(x)
         return [_camera(cameras[i], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(indices)]
 
+    prior_sd = [sd for d, sd in enumerate(size_prior_sd) if free[d]] if size_prior_sd is not None else []
+
+    def prior_rows(L, W):
+        """The prior's residuals, px (one per free dimension; none without a prior)."""
+        off = [v for d, v in enumerate((L - L0, W - W0)) if free[d]]
+        return np.array([o / s for o, s in zip(off, prior_sd)], np.float64)
+
     matches = None
     res = None
     for radius in radii:
@@ -201,6 +215,7 @@ def fit_tripod(
         counts = [len(m.q) for m in matches]
         if sum(counts) < ns + 4 * nv + 8 or min(counts) < 8:
             raise ValueError("too few marking points matched to the views' paint")
+        n_data = sum(counts)
 
         def fun(x):
             C, L, W, kappa = unpack(x)
@@ -210,9 +225,11 @@ def fit_tripod(
                 p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), sizes[indices[j]])
                 r = np.einsum("ij,ij->i", m.n, p - m.q)
                 out.append(np.where(np.isfinite(r), r, 50.0))
+            out.append(prior_rows(L, W))
             return np.concatenate(out)
 
-        S = lil_matrix((sum(counts), len(x)), dtype=np.int8)
+        S = lil_matrix((n_data + len(prior_rows(L0, W0)), len(x)), dtype=np.int8)
+        S[n_data:, 3 : 3 + nfree] = 1
         row = 0
         for j, n in enumerate(counts):
             S[row : row + n, :ns] = 1
@@ -220,13 +237,13 @@ def fit_tripod(
             row += n
         res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
         x = res.x
-    r = res.fun
+    r = res.fun[:n_data]
     inl = np.abs(r) < 2.5
     rms = float(np.sqrt(np.mean(r[inl] ** 2))) if inl.any() else float("inf")
     # the least-squares standard deviations of the size (a floor for the jackknife's:
     # views alike leave a direction the data do not fix with a jackknife near zero)
     J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
-    J = J[inl]
+    J, J_prior = J[:n_data][inl], J[n_data:]
     # (a direction the views leave open keeps its huge variance: eigenvalues are
     # floored, not dropped as a pseudo-inverse would)
     # Besides the noise, each marking of each view may sit ``systematic_px`` off its
@@ -235,12 +252,14 @@ def fit_tripod(
     # equations, adds up over those (view, marking) groups independently.
     groups = np.concatenate([j * 10_000 + m.marking for j, m in enumerate(matches)])[inl]
     try:
-        lam, V = np.linalg.eigh(J.T @ J)
+        # (the information: the pixels' at their noise, the prior's rows already
+        # in units of its standard deviation)
+        noise = max(rms, 0.3) ** 2
+        lam, V = np.linalg.eigh(J.T @ J / noise + J_prior.T @ J_prior)
         lam = np.maximum(lam, 1e-12 * max(lam.max(), 1e-300))
-        Ainv = (V / lam) @ V.T
-        cov = Ainv * max(rms, 0.3) ** 2
+        cov = (V / lam) @ V.T
         rows = slice(3, 3 + nfree)
-        G = Ainv[rows] @ J.T  # (nfree, N): d(size) / d(residual)
+        G = cov[rows] @ J.T / noise  # (nfree, N): d(size) / d(residual)
         _, g = np.unique(groups, return_inverse=True)
         per_group = np.stack([np.bincount(g, weights=G[k]) for k in range(nfree)]) if nfree else np.zeros((0, 0))
         sys_var = systematic_px**2 * (per_group**2).sum(axis=1) if nfree else np.zeros(0)

@@ -38,6 +38,7 @@ from arstream.evaluate import frame_error  # noqa: E402
 from arstream.evaluate_video import draw_overlay, evaluate_video  # noqa: E402
 from arstream.initialise import register_image  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
+from arstream.pitch_size import corresponding_samples  # noqa: E402
 from arstream.support import bright_mask, line_support, marking_points  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
@@ -63,13 +64,17 @@ def references(item: str) -> dict[int, tuple[Camera, PitchModel]]:
     return out
 
 
-def distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, aspect: float = 1.0) -> float:
+def distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, aspect: float = 1.0, got_pitch: PitchModel | None = None) -> float:
     """Mean distance (pixels of the frame shown 1280 wide) between the markings
-    in the reference's view projected by both cameras."""
+    in the reference's view projected by both cameras: the reference's on
+    its ``pitch``, ``got`` on ``got_pitch`` where it was made at another size
+    (the same points of the same markings,
+    :func:`arstream.pitch_size.corresponding_samples`)."""
     if aspect != 1.0:
         ref, got = (Camera(K=np.diag([aspect, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, got))
         size = (round(size[0] * aspect), size[1])
-    err = frame_error(ref, got, size, pitch.sample_points(0.25), pitch.symmetries[:1])
+    pts, moved = corresponding_samples(pitch, got_pitch or pitch)
+    err = frame_error(ref, got, size, pts, pitch.symmetries[:1], moved)
     return float("nan") if err is None else err.mean * 1280.0 / size[0]
 
 
@@ -83,11 +88,14 @@ def still_rows(sheets: Path | None) -> list[dict]:
         t0 = time.perf_counter()
         est, cam = _register(img, aspect)
         seconds = time.perf_counter() - t0
-        sup = None if cam is None else frame_support(img, cam)
+        # (no size given: the camera is made at the size the still's view gives)
+        made_at = est.info["pitch"] if cam is not None else None
+        pitch = None if made_at is None else made_at.model()
+        sup = None if cam is None else frame_support(img, cam, pitch)
         refs = references("sequence_epl" if name.startswith("sequence") else name)
-        d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], aspect) if cam is not None and frame in refs else float("nan")
-        rows.append({"item": name, "status": est.status, "support": sup, "distance_1280": d, "seconds": seconds})
-        overlays.append(draw_overlay(img, cam, f"{name}: {est.status}" + (f"  support {sup:.2f}" if sup is not None else ""), pixel_aspect=aspect))
+        d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], aspect, pitch) if cam is not None and frame in refs else float("nan")
+        rows.append({"item": name, "status": est.status, "support": sup, "distance_1280": d, "seconds": seconds, "pitch": None if made_at is None else made_at.describe()})
+        overlays.append(draw_overlay(img, cam, f"{name}: {est.status}" + (f"  support {sup:.2f}" if sup is not None else ""), pitch=pitch, pixel_aspect=aspect))
     if sheets is not None:
         sheet(overlays, sheets / "real_registration_stills.jpg")
     return rows
@@ -132,7 +140,7 @@ def clip_frame_rows(clips, pitches: dict) -> list[dict]:
             est, cam = _register(img, pitch=pitch)
             if cam is not None:
                 got += 1
-                d = distance_1280(ref, cam, (img.shape[1], img.shape[0]), ref_pitch)
+                d = distance_1280(ref, cam, (img.shape[1], img.shape[0]), ref_pitch, got_pitch=est.info["pitch"].model())
                 dists.append(d)
                 near += d <= 5.0
         rows.append({"item": name + (f" (--pitch {pitches[name][0]:g}x{pitches[name][1]:g})" if name in pitches else ""), "frames": len(refs), "registered": got, "within_5px": near, "distances": dists, "seconds": (time.perf_counter() - t0) / len(refs)})
@@ -273,10 +281,10 @@ def main(argv=None) -> int:
     if args.sheets:
         args.sheets.mkdir(parents=True, exist_ok=True)
     if not args.no_stills:
-        print("| still | status | line support | distance to reference (px @1280) | seconds |")
-        print("|---|---|---|---|---|")
+        print("| still | status | line support | distance to reference (px @1280) | pitch | seconds |")
+        print("|---|---|---|---|---|---|")
         for r in still_rows(args.sheets):
-            print(f"| {r['item']} | {r['status']} | {_fmt(r['support'])} | {_fmt(r['distance_1280'])} | {r['seconds']:.1f} |", flush=True)
+            print(f"| {r['item']} | {r['status']} | {_fmt(r['support'])} | {_fmt(r['distance_1280'])} | {r['pitch'] or '-'} | {r['seconds']:.1f} |", flush=True)
     if not args.no_stills:
         print()
         print("| clip's reference frames, each registered on its own | frames | registered | within 5 px of the reference | distances (px @1280) | seconds a frame |")

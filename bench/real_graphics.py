@@ -252,7 +252,7 @@ def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -
             d = float("nan")
             if cam is not None:
                 got += 1
-                d = distance_1280(truth, cam, (W, H), pitch, aspect)
+                d = distance_1280(truth, cam, (W, H), pitch, aspect, est.info["pitch"].model())
                 near += d <= 5.0
                 wrong += not d <= 20.0
             if show:
@@ -260,7 +260,7 @@ def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -
                 print(f"  {v:12s} {name:32s} {est.status:5s} support {sup if sup is None else round(sup, 3)}  distance {d:.1f} px" + ("" if cam is not None else f"  ({(est.info or {}).get('reason')})"), flush=True)
             if draw is not None and cam is not None and not d <= 20.0:
                 draw.mkdir(parents=True, exist_ok=True)
-                cv2.imwrite(str(draw / f"{v}_{name.replace(' ', '_')}.jpg"), draw_overlay(im, cam, f"{v} {name}: {d:.0f} px", pixel_aspect=aspect))
+                cv2.imwrite(str(draw / f"{v}_{name.replace(' ', '_')}.jpg"), draw_overlay(im, cam, f"{v} {name}: {d:.0f} px", pitch=est.info["pitch"].model(), pixel_aspect=aspect))
         rows.append({"variant": v, "frames": len(frames), "registered": got, "within_5px": near, "beyond_20px": wrong, "seconds": (time.perf_counter() - t0) / max(len(frames), 1)})
     return rows
 

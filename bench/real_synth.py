@@ -20,15 +20,18 @@ the frames drawn more than 20 px off (a wrong camera on air), and the run's
 wall time.
 
 With ``--stills N``, every N-th frame of each clip is instead registered on
-its own (``arstream register``, no temporal help; at the clip's own pitch
-size, and with ``--stills-default`` also at the default 105 x 68) and scored
-the same way: registered or lost, within 5 px, and registered more than
-20 px off (a wrong camera that a still's checks let through).
+its own (``arstream register``, no temporal help) and scored the same way:
+registered or lost, within 5 px, and registered more than 20 px off (a wrong
+camera that a still's checks let through). ``--stills-sizes`` says at which
+pitch sizes: ``own`` (the clip's, given), ``105x68`` (given, whatever the
+clip's) and ``unknown`` (none given: ``register``'s default, the size the
+view constrains estimated from 105 x 68); a camera is scored on the
+markings of the size it was made at.
 
 Usage::
 
     python bench/real_synth.py [--presets real-wide,real-penalty,...] [--seeds 1-5] [--frames 200] [--json F]
-    python bench/real_synth.py --stills 25 [--stills-default] [--presets ...] [--seeds ...]
+    python bench/real_synth.py --stills 25 [--stills-sizes own,105x68,unknown] [--presets ...] [--seeds ...]
 """
 
 from __future__ import annotations
@@ -122,11 +125,16 @@ def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
     }
 
 
-def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, default_size: bool = False) -> list[dict]:
+#: ``--stills-sizes``: the pitch sizes a still is registered at
+STILL_SIZES = ("own", "105x68", "unknown")
+
+
+def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, sizes: str = "own") -> list[dict]:
     """Every ``every``-th frame of one clip registered as a still
     (:func:`arstream.initialise.register_image`, with the clip's pixel aspect;
-    at its own pitch size, or at 105 x 68 with ``default_size``), each scored
-    against the truth marking for marking (px of the frame shown 1280 wide)."""
+    ``sizes`` one of :data:`STILL_SIZES`), each scored against the truth
+    marking for marking, on the markings of the size the camera was made at
+    (px of the frame shown 1280 wide)."""
     import av
 
     from arstream.initialise import register_image
@@ -136,12 +144,11 @@ def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, d
         generate(clip, preset=preset, seed=seed, frames=frames)
     header = json.loads((clip / "header.json").read_text())
     truth_pitch = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
-    run_pitch = PitchModel() if default_size else truth_pitch
+    given = {"own": truth_pitch, "105x68": PitchModel(), "unknown": None}[sizes]
     aspect = header.get("pixel_aspect", [1, 1])
     aspect = aspect[0] / aspect[1]
     size = tuple(header["size"])
     truth = {int(t["frame"]): t for t in read_jsonl(clip / "truth.jsonl")}
-    pts, moved = corresponding_samples(truth_pitch, run_pitch)
     rows = []
     with av.open(str(clip / "clip.mp4")) as c:
         for k, frame in enumerate(c.decode(video=0)):
@@ -151,38 +158,46 @@ def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, d
             if t is None or t.get("K") is None or not t.get("visible_pitch", True):
                 continue
             t0 = time.perf_counter()
-            est = register_image(frame.to_ndarray(format="bgr24"), pixel_aspect=aspect, pitch=run_pitch)
+            est = register_image(frame.to_ndarray(format="bgr24"), pixel_aspect=aspect, pitch=given)
             seconds = time.perf_counter() - t0
-            err = None if est.camera is None else _error_1280(t, est.camera, size, truth_pitch, pts, moved)
-            rows.append({"clip": f"{preset} {seed}", "frame": k, "registered": est.camera is not None, "error_1280": err, "reason": est.info.get("reason"), "seconds": seconds})
+            err, made_at = None, None
+            if est.camera is not None:
+                made_at = est.info["pitch"]
+                pts, moved = corresponding_samples(truth_pitch, made_at.model())
+                err = _error_1280(t, est.camera, size, truth_pitch, pts, moved)
+            rows.append(
+                {
+                    "clip": f"{preset} {seed}", "frame": k, "sizes": sizes, "registered": est.camera is not None, "error_1280": err, "reason": est.info.get("reason"), "seconds": seconds,
+                    "pitch_truth": [truth_pitch.length, truth_pitch.width], "pitch": None if made_at is None else made_at.to_dict(),
+                }
+            )  # fmt: skip
     return rows
 
 
 def stills_main(args) -> int:
-    """``--stills N``: the table of registrations per preset."""
+    """``--stills N``: the table of registrations per preset and size."""
     rows = []
-    print("| preset | size | stills | registered | within 5 px | 5-20 px | beyond 20 px (wrong) | s a still (median) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| preset | size | stills | registered | within 5 px | 5-20 px | beyond 20 px (wrong) | size estimated | s a still (median) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for preset in args.presets.split(","):
-        for default_size in (False, True) if args.stills_default else (False,):
+        for sizes in args.stills_sizes:
             got = []
             for seed in args.seeds:
-                got += still_rows(preset, seed, args.frames, args.workdir, args.stills, default_size)
-            for r in got:
-                r["size"] = "105 x 68" if default_size else "own"
+                got += still_rows(preset, seed, args.frames, args.workdir, args.stills, sizes)
             rows += got
             n = len(got)
             reg = [r for r in got if r["registered"]]
             errs = np.array([np.inf if r["error_1280"] is None else r["error_1280"] for r in reg])
+            estimated = sum(r["pitch"]["source"] == "estimated" for r in reg)
             print(
-                f"| {preset} | {'105 x 68' if default_size else 'its own'} | {n} | {len(reg)} | {int(np.sum(errs <= 5))} | {int(np.sum((errs > 5) & (errs <= 20)))} "
-                f"| {int(np.sum(errs > 20))} | {np.median([r['seconds'] for r in got]):.2f} |",
+                f"| {preset} | {sizes} | {n} | {len(reg)} | {int(np.sum(errs <= 5))} | {int(np.sum((errs > 5) & (errs <= 20)))} "
+                f"| {int(np.sum(errs > 20))} | {estimated if sizes == 'unknown' else '-'} | {np.median([r['seconds'] for r in got]):.2f} |",
                 flush=True,
             )
             # (a camera with no marking in view scores no error: counted as wrong)
             wrong = [f"{r['clip']} frame {r['frame']}: {'no marking in view' if r['error_1280'] is None else format(r['error_1280'], '.1f')}" for r in reg if r["error_1280"] is None or r["error_1280"] > 5]
             if wrong:
-                print("|  | further than 5 px: " + "; ".join(wrong) + " |  |  |  |  |  |  |")
+                print("|  | further than 5 px: " + "; ".join(wrong) + " |  |  |  |  |  |  |  |")
     if args.json:
         args.json.write_text(json.dumps(rows, indent=2))
     return 0
@@ -196,13 +211,15 @@ def main(argv=None) -> int:
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/arstream-bench"), help="where the clips are generated (reused)")
     ap.add_argument("--json", type=Path, help="write the rows here")
     ap.add_argument("--stills", type=int, default=0, metavar="N", help="register every N-th frame as a still instead of processing the clips")
-    ap.add_argument("--stills-default", action="store_true", help="with --stills: also register at the default 105 x 68")
+    ap.add_argument("--stills-sizes", type=lambda t: t.split(","), default=["own"], metavar="S,...", help=f"with --stills: the pitch sizes, of {', '.join(STILL_SIZES)} (default own)")
     args = ap.parse_args(argv)
     unknown = [p for p in args.presets.split(",") if p not in REAL_PRESETS]
     if unknown:
         ap.error(f"not realistic presets: {', '.join(unknown)} (choose from {', '.join(REAL_PRESETS)})")
     if args.stills < 0:
         ap.error("--stills must be positive")
+    if any(v not in STILL_SIZES for v in args.stills_sizes):
+        ap.error(f"--stills-sizes: choose from {', '.join(STILL_SIZES)}, got {','.join(args.stills_sizes)}")
     if args.stills:
         return stills_main(args)
     rows = []

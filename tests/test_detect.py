@@ -308,6 +308,13 @@ def test_register_a_still_and_a_penalty_area_still(tmp_path, capsys):
         px = true_points(truth, name, 0.25)
         est = cam.project_pitch(PITCH[name].sample(0.25))
         assert np.median(nearest(est, px)) < 2.0
+        # no size given: the size the view constrains, estimated from 105 x 68,
+        # stays at this 105 x 68 pitch's (it does not drift)
+        made_at = rec["pitch"]
+        assert made_at["source"] in ("estimated", "default") and abs(made_at["length"] - 105.0) < 1.0 and abs(made_at["width"] - 68.0) < 1.0, made_at
+    assert main(["register", str(png), "--pitch", "105x68"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("ok  f=") and "pitch 105.0 x 68.0 m (given)" in out
 
 
 def test_lazy_detection_matches_eager():

@@ -569,3 +569,81 @@ def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in
     assert len(lines) == FRAMES_ODD and cams.read_bytes() != fixed.read_bytes()  # the second run's, whole
     with av.open(str(out)) as c:
         assert sum(1 for _ in c.decode(video=0)) == FRAMES_ODD
+
+
+# ---------------------------------------------------------------------------
+# a still's size from its one view (arstream.pitch_size.estimate_view_size)
+
+WIDE = ((0.0, -72.0, 22.0), (8.0, 0.0), 0.8 * SIZE[0])
+
+
+@pytest.mark.parametrize("truth", [(101.0, 72.0), (108.5, 65.0), (105.0, 68.0)])
+def test_a_still_s_size_comes_back_from_its_view(truth):
+    # a wide view of the centre circle, both touchlines and a penalty area, its
+    # camera made at 105 x 68 (the picture's best at the wrong size stands in):
+    # the size and camera come back, started from the prior
+    from arstream.pitch_size import estimate_view_size
+    from arstream.solve import seated
+
+    pitch = PitchModel(*truth)
+    centre, target, f = WIDE
+    view = _views(pitch, [target], centre=centre, f=f)[0]
+    start = seated(view.camera, np.asarray(centre) + (0.5, 1.0, -0.5), ModelSamples.from_pitch(PitchModel(), 0.5), SIZE)
+    got = estimate_view_size(start, view.points, SIZE, radii=(20.0, 8.0, 3.0, 2.0))
+    assert got.source == "estimated" and got.views == 1 and got.constrained == (True, True), got.describe()
+    # exact pixels: the floor is the association's (samples 5 cm apart) and the
+    # prior's pull, under a centimetre here
+    assert abs(got.length - truth[0]) < 0.05 and abs(got.width - truth[1]) < 0.05, got.describe()
+    assert np.linalg.norm(got.cameras[0].center - centre) < 0.05
+    assert "estimated from 1 view)" in got.describe()
+
+
+def test_a_still_of_one_goal_end_fixes_the_width_not_the_length():
+    # the penalty and goal areas with a touchline: the width is fixed (the
+    # penalty area is centred between the touchlines), the length is not (the
+    # goal end and the camera move together), and keeps the prior's
+    from arstream.pitch_size import estimate_view_size
+
+    view = _views(PitchModel(101.0, 71.0), [(42.0, 0.0)], centre=(20.0, -50.0, 16.0), f=1800.0)[0]
+    got = estimate_view_size(view.camera, view.points, SIZE)
+    assert got.source == "estimated" and got.constrained == (False, True), got.describe()
+    assert got.length == 105.0 and abs(got.width - 71.0) < 0.05, got.describe()
+    assert "length not constrained by the view: default kept" in got.describe()
+
+
+def test_a_still_that_fixes_no_dimension_keeps_the_prior():
+    # a long lens on the centre circle and the halfway line: neither dimension
+    from arstream.pitch_size import estimate_view_size
+
+    view = _views(PitchModel(101.0, 71.0), [(0.0, 0.0)], centre=(-5.0, -60.0, 14.0), f=3.0 * SIZE[0])[0]
+    got = estimate_view_size(view.camera, view.points, SIZE)
+    assert got.source == "default" and (got.length, got.width) == (105.0, 68.0) and got.cameras == ()
+    with pytest.raises(ValueError, match="too few marking points matched"):
+        estimate_view_size(view.camera, np.zeros((0, 2)), SIZE)
+
+
+def test_register_image_estimates_an_odd_still_s_size():
+    # a realistic synthetic wide still of a 107 x 74 m pitch (shadows, players,
+    # graphics, compression's look): with no size given the camera is made at
+    # 105 x 68, then at the size its view gives; given 105 x 68 it is several
+    # px off, the far markings on the wrong paint
+    from arstream.evaluate import frame_error
+    from arstream.initialise import register_image
+    from arstream.pitch_size import corresponding_samples
+    from arstream.synth import SynthClip
+
+    clip = SynthClip("real-wide", seed=3, frames=1)
+    assert (clip.pitch.length, clip.pitch.width) == (107.0, 74.0)
+    img, truth = clip.render(0), clip.camera(0)
+
+    def error_1280(est):
+        pts, moved = corresponding_samples(clip.pitch, est.info["pitch"].model())
+        return frame_error(truth, est.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+
+    unknown = register_image(img, pixel_aspect=float(clip.pixel_aspect))
+    made_at = unknown.info["pitch"]
+    assert made_at.source == "estimated" and made_at.constrained == (True, True), made_at.describe()
+    assert abs(made_at.length - 107.0) < 1.0 and abs(made_at.width - 74.0) < 1.5, made_at.describe()
+    given = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
+    assert given.info["pitch"].source == "given"
+    assert error_1280(unknown) < 2.0 < 5.0 < error_1280(given)

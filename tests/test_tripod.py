@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from cameras import looking_at
 
+from arstream.pitch_size import size_derivatives
 from arstream.solve import LineIndex, ModelSamples, seated
 from arstream.tripod import fit_tripod
 from geometry.pitch import PitchModel
@@ -66,3 +67,43 @@ def test_a_fit_is_refused_with_a_clear_error():
     nowhere = LineIndex(np.array([[5.0, 5.0], [6.0, 5.0]]))
     with pytest.raises(ValueError, match="too few marking points matched to the views' paint"):
         fit_tripod([FIRST, TURNED], [paint, nowhere], [SIZE, SIZE], MODEL, TRUTH, PITCH)
+
+
+def test_a_size_prior_holds_what_one_view_leaves_open():
+    # one view of a goal end (penalty and goal areas, the goal line, a
+    # touchline): moving the goal end and the camera together along the
+    # touchline changes nothing in the picture. Started a metre off, the fit
+    # without a prior slides along that direction (to a pitch 116 m long);
+    # the prior holds it at 105 m, and the picture is the exact one
+    cam = looking_at((20.0, -50.0, 16.0), (42.0, 0.0, 0.0), 1.8 * SIZE[0], SIZE)
+    start = seated(cam, cam.center + (1.0, 0.5, -0.5), MODEL, SIZE)
+    size_d = size_derivatives(PITCH, MODEL)
+    free = dict(derivatives=size_d, free=(True, True))
+    drifts = fit_tripod([start], [_paint(cam)], [SIZE], MODEL, start.center, PITCH, **free)
+    assert drifts.length - PITCH.length > 5.0
+    fit = fit_tripod([start], [_paint(cam)], [SIZE], MODEL, start.center, PITCH, **free, size_prior_sd=(3.0, 3.0))
+    # (exact paint: the arithmetic's floor, far below a centimetre)
+    assert abs(fit.length - PITCH.length) < 0.01 and abs(fit.width - PITCH.width) < 0.01
+    assert np.linalg.norm(fit.centre - cam.center) < 0.01
+    # the length's uncertainty is the prior's; the width is fixed by the view
+    assert abs(fit.size_sd[0] - 3.0) < 0.05 and fit.size_sd[1] < 1.0
+    X = _markings()
+    px, ok = _in_view(cam, X)
+    assert np.abs(fit.cameras[0].project(X[ok]) - px[ok]).max() < 0.01
+
+
+def test_a_size_prior_gives_way_to_a_view_that_fixes_the_size():
+    # a wide view of an odd pitch (the centre circle, both touchlines and a
+    # penalty area): its exact paint moves the size to the truth, against the
+    # prior about 105 x 68, to the association's floor
+    odd = PitchModel(101.0, 72.0)
+    pts = odd.sample_points(0.05)
+    X = np.column_stack([pts, np.zeros(len(pts))])
+    truth = looking_at((0.0, -72.0, 22.0), (8.0, 0.0, 0.0), 0.8 * SIZE[0], SIZE)
+    px, ok = _in_view(truth, X)
+    size_d = size_derivatives(PITCH, MODEL)
+    start = seated(truth, truth.center + (0.5, 1.0, -0.5), MODEL, SIZE)
+    fit = fit_tripod([start], [LineIndex(px[ok])], [SIZE], MODEL, start.center, PITCH, derivatives=size_d, free=(True, True), radii=(20.0, 8.0, 3.0, 2.0), size_prior_sd=(3.0, 3.0))
+    assert abs(fit.length - odd.length) < 0.05 and abs(fit.width - odd.width) < 0.05, (fit.length, fit.width)
+    assert np.linalg.norm(fit.centre - truth.center) < 0.05
+    assert all(sd < 1.5 for sd in fit.size_sd)
