@@ -681,7 +681,9 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
 
     The size the view constrains is estimated with the camera from the
     frame's paint pixels (:func:`arstream.pitch_size.estimate_view_size`,
-    ``pitch`` as the prior). The estimate is kept when the frame's paint
+    ``pitch`` as the prior). An estimate within two of its standard
+    deviations of ``pitch`` is no other size (:meth:`PitchSize.within_noise`,
+    as a clip's estimate is judged). Another is kept when the frame's paint
     backs its camera (:func:`paint_verdict` at the estimated size) with a
     line support no lower than ``camera``'s at ``pitch`` (``support``): on a
     real frame paint the markings do not cover (the boards, another sport's
@@ -708,7 +710,7 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
         got = estimate_view_size(camera, view.points, size, pitch)
     except ValueError:
         return kept
-    if not got.cameras:
+    if not got.cameras or got.within_noise((pitch.length, pitch.width)):
         return kept
     other = got.model(pitch.line_width)
     sup, spread = backed_support(got.cameras[0], view.bright, other)

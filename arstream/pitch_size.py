@@ -159,6 +159,15 @@ class PitchSize:
         """The :class:`PitchModel` of this size."""
         return PitchModel(self.length, self.width) if line_width is None else PitchModel(self.length, self.width, line_width)
 
+    def within_noise(self, size) -> bool:
+        """Whether this size lies within two of its standard deviations of
+        ``size`` (length, width) along each dimension (one without a standard
+        deviation must equal it): no other size than ``size`` to judge."""
+        for v, sd, ref in ((self.length, self.length_sd, size[0]), (self.width, self.width_sd, size[1])):
+            if abs(v - ref) > (2.0 * sd if sd is not None else 1e-9):
+                return False
+        return True
+
     @property
     def constrained(self) -> tuple[bool, bool]:
         """Whether the views fixed the length, the width."""

@@ -517,9 +517,7 @@ def _interrupted_in_pass(tmp_path, stop_in):
     ],
 )
 def test_an_estimate_within_its_noise_of_the_default_is_no_other_size(length, width, length_sd, width_sd, within):
-    from arstream.pipeline.api import _within_noise
-
-    assert _within_noise(PitchSize(length, width, length_sd, width_sd, source="estimated"), (105.0, 68.0)) is within
+    assert PitchSize(length, width, length_sd, width_sd, source="estimated").within_noise((105.0, 68.0)) is within
 
 
 def _largest_gap(a, b, size) -> float:

@@ -393,7 +393,7 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         auto, _, _, est = _process_once(input, None, None, pitch=PitchModel(), estimate_pitch=True, **run)
         first.seconds += auto.seconds
         first.cpu_seconds += auto.cpu_seconds
-        if est is None or est.source != "estimated" or _within_noise(est, scan.sizes[0]):
+        if est is None or est.source != "estimated" or est.within_noise(scan.sizes[0]):
             return kept(scan)
         check, check_s, check_cpu = check_size(scan=scan, size=(est.length, est.width), analysis=an, **_scan_options(input, run))
     except Interrupted as e:
@@ -407,16 +407,6 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     last, _ = _run_beside(input, output, cameras_out, first, run, pitch=size.model(), estimate_pitch=False)
     last.pitch, last.pitch_text = size.to_dict(), size.describe()
     return last
-
-
-def _within_noise(est, size) -> bool:
-    """Whether an estimated PitchSize lies within two of its standard
-    deviations of ``size`` (length, width) along each dimension (one the
-    views left open is the prior's): no other size to judge."""
-    for v, sd, ref in ((est.length, est.length_sd, size[0]), (est.width, est.width_sd, size[1])):
-        if abs(v - ref) > (2.0 * sd if sd is not None else 1e-9):
-            return False
-    return True
 
 
 def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool) -> tuple[Summary, object]:
