@@ -595,7 +595,8 @@ def estimate_view_size(
     (:func:`arstream.tripod.fit_tripod` with one view), under a Gaussian
     prior about ``prior``'s size with ``prior_sd`` (:data:`VIEW_PRIOR_SD`):
     a direction the view leaves open stays at the prior, where a fit without
-    it drifts (a pitch 53 m long on a view of one half). A dimension whose
+    it drifts (on exact paint of one goal end, started a metre off, to a
+    pitch 116 m long: ``tests/test_tripod.py``). A dimension whose
     posterior standard deviation is over :data:`VIEW_CONSTRAINS` of the
     prior's is not constrained by the view: it is fixed at the prior's value
     and the rest refitted.

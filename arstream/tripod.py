@@ -132,8 +132,9 @@ def fit_tripod(
         dimensions about ``pitch``'s, each as one residual of ``(L - L0) /
         sd`` (px in the fit, at the loss's 1 px scale): a direction the views
         leave open stays at the prior instead of drifting, and the size's
-        standard deviation is the posterior's (never over the prior's).
-        None: no prior
+        standard deviation is the posterior's (the pixels' information at
+        their noise and the prior's, then the systematic term). None: no
+        prior
 
     Returns
     -------
