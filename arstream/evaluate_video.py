@@ -49,7 +49,7 @@ from arstream.support import MIN_POINTS, frame_mask, jitter_proxy, line_support,
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
-__all__ = ["FrameSupport", "VideoScore", "cameras_by_frame", "evaluate_video", "evaluate_video_files", "draw_overlay", "contact_sheet", "format_video_table"]
+__all__ = ["FrameSupport", "VideoScore", "cameras_by_frame", "record_pitches", "evaluate_video", "evaluate_video_files", "draw_overlay", "contact_sheet", "format_video_table"]
 
 #: statuses whose cameras are drawn
 DRAWN = ("ok", "tracked")
@@ -159,6 +159,28 @@ def cameras_by_frame(records: list[dict], name: str = "cameras.jsonl") -> dict[i
             except ValueError as exc:
                 raise InputError(f"{name}: frame {i}: {exc}") from None
         out[i] = (status, cam)
+    return out
+
+
+def record_pitches(records: list[dict], name: str = "cameras.jsonl") -> dict[int, PitchModel]:
+    """``frame -> PitchModel`` of the records that carry the size their camera
+    was made at (a ``pitch`` entry with ``length`` and ``width`` in metres, as
+    ``arstream register --json`` writes; docs/formats.md).
+
+    Raises
+    ------
+    InputError
+        A ``pitch`` entry that is not an object with a legal length and width.
+    """
+    out: dict[int, PitchModel] = {}
+    for r in records:
+        p = r.get("pitch") if isinstance(r, dict) else None
+        if p is None:
+            continue
+        try:
+            out[r["frame"]] = PitchModel(float(p["length"]), float(p["width"]))
+        except (TypeError, KeyError, ValueError) as exc:
+            raise InputError(f"{name}: frame {r.get('frame')}: a pitch entry needs a length and a width in metres ({exc})") from None
     return out
 
 
@@ -283,7 +305,9 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
         a folder of images or a glob of numbered frames (natural order, index =
         position)
     records : cameras.jsonl records, paired with the frames by ``frame``
-    pitch : PitchModel (default 105 x 68)
+    pitch : PitchModel the cameras were made at (default: a record's own
+        ``pitch`` entry where it has one, as ``arstream register --json``
+        writes, else 105 x 68)
     pixel_aspect : a pixel's width over its height, for overlays and the
         1280-wide scale (default: the cameras' ``K[1, 1] / K[0, 0]``); see the
         module docstring
@@ -301,6 +325,7 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
         Missing or unreadable video, no frame decoded, bad records
         (:func:`cameras_by_frame`), a folder that cannot be written.
     """
+    own = record_pitches(records, name) if pitch is None else {}
     pitch = pitch or PitchModel()
     if pixel_aspect is not None and not (np.isfinite(pixel_aspect) and pixel_aspect > 0):
         raise InputError(f"pixel aspect must be positive, got {pixel_aspect}")
@@ -320,7 +345,9 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
             os.makedirs(draw_dir, exist_ok=True)
         except OSError as exc:
             raise InputError(f"cannot make the folder {draw_dir}: {exc.strerror or exc}") from None
-    points = marking_points(pitch)
+    points = {(pitch.length, pitch.width): marking_points(pitch)}
+    for p in own.values():
+        points.setdefault((p.length, p.width), marking_points(p))
     frames_it, listed, close, src_errors = _open_frames(video)
     per_frame: list[FrameSupport] = []
     cams: list[Camera | None] = []
@@ -332,16 +359,17 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
             if size is None:
                 size = (f.width, f.height)
             status, cam = by_frame.get(f.index, ("missing", None))
+            made_at = own.get(f.index, pitch)
             share, n_inside = None, 0
             if cam is not None:
-                s = line_support(cam, frame_mask(f), points)
+                s = line_support(cam, frame_mask(f), points[made_at.length, made_at.width])
                 share, n_inside = s.share, s.n_inside
             per_frame.append(FrameSupport(f.index, status, share, n_inside))
             cams.append(cam)
             if draw_every and f.index % draw_every == 0:
                 sup = "n/a" if cam is None else (f"{share:.2f}" if share is not None else f"undefined ({n_inside} points)")
                 label = f"frame {f.index}  {status}  support {sup}"
-                img = draw_overlay(f.image, cam, label, pitch=pitch, pixel_aspect=aspect)
+                img = draw_overlay(f.image, cam, label, pitch=made_at, pixel_aspect=aspect)
                 path = os.path.join(draw_dir, f"frame_{f.index:06d}.png")
                 _write_png(path, img)
                 overlays.append(path)

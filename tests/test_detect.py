@@ -312,6 +312,12 @@ def test_register_a_still_and_a_penalty_area_still(tmp_path, capsys):
         # stays at this 105 x 68 pitch's (it does not drift)
         made_at = rec["pitch"]
         assert made_at["source"] in ("estimated", "default") and abs(made_at["length"] - 105.0) < 1.0 and abs(made_at["width"] - 68.0) < 1.0, made_at
+        # the record, written to a file, is a cameras.jsonl that eval --video judges
+        assert rec["frame"] == 0
+        (tmp_path / "r.jsonl").write_text(json.dumps(rec) + "\n")
+        assert main(["eval", "--video", str(png), "--pred", str(tmp_path / "r.jsonl")]) == 0
+        table = capsys.readouterr().out
+        assert "coverage" in table and "100.0 %" in table and "warning" not in table, table
     assert main(["register", str(png), "--pitch", "105x68"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("ok  f=") and "pitch 105.0 x 68.0 m (given)" in out

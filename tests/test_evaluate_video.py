@@ -251,3 +251,39 @@ def test_usage_errors(args, message, capsys):
         main(["eval", "--pred", "p.jsonl", *args])
     assert e.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"error: {message}")
+
+
+def _drawn_still(tmp_path, pitch: PitchModel):
+    """A wide view of ``pitch``'s markings painted on grass (PNG) and its camera."""
+    from cameras import looking_at
+
+    W, H = 1280, 720
+    cam = looking_at((0.0, -72.0, 22.0), (8.0, 0.0, 0.0), 0.8 * W, (W, H))
+    rng = np.random.default_rng(4)
+    img = np.clip(np.array([60, 140, 70]) + rng.normal(0, 6, (H, W, 3)), 0, 255).astype(np.uint8)
+    for poly in pitch.polylines(0.1):
+        px = cam.project(np.column_stack([poly, np.zeros(len(poly))]))
+        ok = np.all(np.isfinite(px), axis=1) & np.all(np.abs(px) < 4 * W, axis=1)
+        if ok.sum() >= 2:
+            cv2.polylines(img, [np.rint(px[ok] * 16).astype(np.int32)], False, (225, 225, 225), 2, cv2.LINE_AA, shift=4)
+    path = tmp_path / "still.png"
+    cv2.imwrite(str(path), img)
+    return path, cam
+
+
+def test_a_record_is_judged_at_its_own_pitch(tmp_path, capsys):
+    # a still of a 101 x 72 m pitch and its exact camera: judged on 105 x 68's
+    # markings the far ones miss their paint; with the record's own "pitch"
+    # entry (what register --json writes) it is judged on the markings it was
+    # made with, as with --pitch given; --pitch overrides the entry
+    odd = PitchModel(101.0, 72.0)
+    still, cam = _drawn_still(tmp_path, odd)
+    rec = {"frame": 0, "status": "ok", **cam.to_dict(), "confidence": 1.0}
+    at_default = evaluate_video(still, [rec]).support_median
+    own = evaluate_video(still, [{**rec, "pitch": {"length": 101.0, "width": 72.0, "source": "estimated"}}]).support_median
+    given = evaluate_video(still, [rec], pitch=odd).support_median
+    assert own == given > 0.95 and at_default < own - 0.2, (at_default, own)
+    assert evaluate_video(still, [{**rec, "pitch": {"length": 101.0, "width": 72.0}}], pitch=PitchModel()).support_median == at_default
+    p = write_jsonl(tmp_path / "c.jsonl", [{**rec, "pitch": {"length": 101.0}}])
+    assert main(["eval", "--video", str(still), "--pred", str(p)]) == 2
+    assert capsys.readouterr().err.strip() == "arstream: error: c.jsonl: frame 0: a pitch entry needs a length and a width in metres ('width')"

@@ -49,7 +49,8 @@ def run(args) -> int:
     made_at = est.info.get("pitch")
     pitch = made_at.model() if made_at is not None else PitchModel(*args.pitch) if args.pitch else PitchModel()
     rec = est.to_record()
-    rec.pop("frame", None)
+    # (the frame's index in INPUT: the record pairs with it in ``eval --video INPUT``)
+    rec["frame"] = args.frame
     rec.pop("pts", None)
     if made_at is not None:
         rec["pitch"] = made_at.to_dict()
