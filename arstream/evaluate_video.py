@@ -167,6 +167,8 @@ def record_pitches(records: list[dict], name: str = "cameras.jsonl") -> dict[int
     was made at (a ``pitch`` entry with ``length`` and ``width`` in metres, as
     ``arstream register --json`` writes; docs/formats.md).
 
+    The records' frames are :func:`cameras_by_frame`'s (checked first).
+
     Raises
     ------
     InputError
@@ -323,9 +325,10 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
     ------
     InputError
         Missing or unreadable video, no frame decoded, bad records
-        (:func:`cameras_by_frame`), a folder that cannot be written.
+        (:func:`cameras_by_frame`, :func:`record_pitches`), a folder that
+        cannot be written.
     """
-    own = record_pitches(records, name) if pitch is None else {}
+    pitch_given = pitch is not None
     pitch = pitch or PitchModel()
     if pixel_aspect is not None and not (np.isfinite(pixel_aspect) and pixel_aspect > 0):
         raise InputError(f"pixel aspect must be positive, got {pixel_aspect}")
@@ -334,6 +337,7 @@ def evaluate_video(video, records: list[dict], *, pitch: PitchModel | None = Non
     if draw_every and draw_dir is None:
         raise InputError("drawing overlays needs a folder to write them to")
     by_frame = cameras_by_frame(records, name)
+    own = {} if pitch_given else record_pitches(records, name)
     cams_all = [c for _, c in by_frame.values() if c is not None]
     k_aspect = _k_aspect(cams_all)
     warnings: list[str] = []
