@@ -25,10 +25,10 @@ import numpy as np
 
 from arstream.detect.paint import PAINT_CONTRAST, paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
-from arstream.pitch_size import PitchSize, estimate_view_size
+from arstream.pitch_size import SCAN_BELOW, SCAN_LENGTHS, SCAN_WIDTHS, PitchSize, choose_still_size, estimate_view_size
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
-from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
+from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, bright_mask, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
@@ -610,6 +610,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     W, H = size
     pitch = pitch or PitchModel()
     pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
+    if estimate_size and image is not None:
+        est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support)
+        return _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support)
     model = ModelSamples.from_pitch(pitch, 0.5)
     if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
         return CameraEstimate.lost(0, 0.0, reason="no pitch")
@@ -668,8 +671,6 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
     camera = r.camera
     info = {"rms": r.rms, "n_visible": r.n_visible}
-    if estimate_size and image is not None:
-        camera, info["pitch"], sup = size_from_view(camera, sup, view, size, pitch, min_support)
     if sup is not None:
         info["support"] = sup
     return CameraEstimate(0, 0.0, "ok", camera, r.confidence, info)
@@ -718,6 +719,85 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
         return kept
     # (the camera is returned on its own: the size's copy would be in the frame's pixels it was fitted in)
     return got.cameras[0], replace(got, cameras=()), sup
+
+
+def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float) -> CameraEstimate:
+    """``est`` (:func:`register_frame` at ``pitch``) with the still's size
+    estimated (``register_frame(estimate_size=True)``): from its camera
+    (:func:`size_from_view`) where the frame's line support of it
+    (docs/evaluate.md) is at least :data:`arstream.pitch_size.SCAN_BELOW`,
+    else by registering the still at the scan's other sizes
+    (:func:`size_from_scan`), also where there is no camera. A frame
+    without a pitch stays as it is."""
+    if est.camera is None and est.info.get("reason") == "no pitch":
+        return est
+    luma = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+    view = paint_view(image, detections)
+    fits = _line_support(est, luma, pitch)
+    if fits is not None and fits >= SCAN_BELOW:
+        camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
+        return replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
+    got, made_at = size_from_scan(detections, size, image, est, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
+    if got.camera is None:
+        return CameraEstimate.lost(0, 0.0, reason=f"{est.info.get('reason')}; nor at the pitch scan's other sizes")
+    return replace(got, info={**got.info, "pitch": made_at})
+
+
+def _line_support(est: CameraEstimate, luma: np.ndarray, pitch: PitchModel) -> float | None:
+    """The line support (docs/evaluate.md) of ``est``'s camera on the frame's
+    bright mask ``luma`` at ``pitch``; None without a camera or markings in view."""
+    return None if est.camera is None else line_support(est.camera, luma, marking_points(pitch)).share
+
+
+def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
+    """A still's pitch size and its camera when its camera at ``pitch`` fits
+    the frame's markings poorly (line support below
+    :data:`arstream.pitch_size.SCAN_BELOW`) or there is none
+    (:func:`register_frame` with ``estimate_size``).
+
+    A wrong size can put the camera on the wrong paint (the far touchline on
+    the boards' edge) or leave no camera the paint backs, and refining from
+    there does not reach the right one. The still is registered again at
+    each other size of the scan's grid (:data:`arstream.pitch_size.SCAN_LENGTHS`
+    x :data:`arstream.pitch_size.SCAN_WIDTHS`, each camera held to the
+    frame's paint as at ``pitch``), the size chosen by the line support of
+    each size's camera (docs/evaluate.md, the clip's scan's measure:
+    :func:`arstream.pitch_size.choose_still_size`), then the size that view
+    constrains estimated from its camera (:func:`size_from_view`, the chosen
+    size the prior).
+
+    Parameters
+    ----------
+    detections : the frame's Detections
+    size : (width, height) of the frame, pixels
+    image : (H, W, 3) uint8 BGR, the frame
+    est : CameraEstimate of the frame at ``pitch`` (:func:`register_frame`;
+        "lost" where the paint backed no camera)
+    view : PaintView of the frame
+    luma : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
+    pitch : PitchModel ``est`` was made at (the grid's centre where on it)
+    principal_point : (2,) px
+
+    Returns
+    -------
+    (CameraEstimate, PitchSize): the registration at the chosen size with
+    the camera and support of :func:`size_from_view`, and its size, which
+    carries the scan (:class:`arstream.pitch_size.SizeScan`, one frame):
+    "scanned" where the chosen grid size is kept as it is. ``est`` itself
+    (and ``pitch``'s size) where the default is kept.
+    """
+    d = (float(pitch.length), float(pitch.width))
+    sizes = [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
+    found = [est] + [register_frame(detections, size, principal_point=principal_point, pitch=PitchModel(L, W, pitch.line_width), estimate_k1=estimate_k1, image=image, min_support=min_support) for L, W in sizes[1:]]
+    scan = choose_still_size(sizes, [_line_support(e, luma, PitchModel(*sz, pitch.line_width)) for e, sz in zip(found, sizes)])
+    best = found[scan.chosen]
+    if best.camera is None:
+        return best, PitchSize(*d, source="default", views=1, scan=scan)
+    at = pitch if scan.chosen == 0 else PitchModel(*scan.size, pitch.line_width)
+    camera, got, sup = size_from_view(best.camera, best.info.get("support"), view, size, at, min_support)
+    if got.source == "default" and scan.chosen != 0:
+        got = PitchSize(*scan.size, source="scanned", views=1)
+    return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
 
 
 def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None) -> CameraEstimate:

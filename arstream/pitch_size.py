@@ -52,7 +52,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -108,6 +108,12 @@ SCAN_LENGTHS = (100.0, 105.0, 110.0)
 SCAN_WIDTHS = (64.0, 68.0, 72.0)
 #: fewest frames with a camera for a median line support to go by
 SCAN_MIN_FRAMES = 25
+#: a still registered at the scan's grid (a camera at the default size with
+#: a line support below :data:`SCAN_BELOW`, or none: :func:`choose_still_size`)
+#: takes another size only where that size's camera has at least this line
+#: support (issue 29's target for a still): a size whose best camera leaves
+#: a fifth of its markings off the paint fits the frame no better
+STILL_SUPPORTED = 0.8
 
 
 @dataclass(frozen=True)
@@ -238,7 +244,7 @@ class SizeScan:
         """e.g. ``chosen by line support on 176 frames: 100 x 68 0.99, 105 x 68 0.82, 110 x 68 0.93``."""
         parts = ", ".join(f"{_metres(L)} x {_metres(W)} {'-' if m is None else f'{m:.2f}'}" for (L, W), m in sorted(zip(self.sizes, self.median)))
         verb = "kept" if self.chosen == 0 else "chosen"
-        return f"{verb} by line support on {self.frames} frames: {parts}"
+        return f"{verb} by line support on {self.frames} frame{'s' if self.frames != 1 else ''}: {parts}"
 
     def to_dict(self) -> dict:
         r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
@@ -407,6 +413,55 @@ def choose_size(sizes, supports) -> SizeScan:
         if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
     return SizeScan(sizes, med, cov, frames, chosen, tuple(list(x) for x in supports))
+
+
+def choose_still_size(sizes, supports) -> SizeScan:
+    """The size whose camera a still's paint backs best (one frame registered
+    at each size; :func:`choose_size` is the clip's rule).
+
+    One frame has no medians or blocks to compare: a size is *higher* than
+    another when its camera's line support is higher by
+    :data:`SCAN_MARGIN`. A size may replace the default when its camera
+    fits the frame (line support at least :data:`STILL_SUPPORTED`) and is
+    higher than the default's, or the default has no camera. Of those
+    sizes, the nearest
+    to it on the grid (fewest dimensions changed; of those, the highest
+    support) is taken, and a farther one replaces it only when it is higher
+    than that one too: sizes whose supports tie within the margin are ones
+    the view does not tell apart (a penalty view's 100, 105 and 110 m), and
+    the nearest to the default is the likelier.
+
+    Parameters
+    ----------
+    sizes : sequence of (length, width) metres, the default's first
+    supports : the still's line support at each size (docs/evaluate.md; None:
+        no camera there)
+
+    Returns
+    -------
+    SizeScan with ``frames`` 1 (``median`` the supports, ``coverage`` 1 or 0
+    a size).
+    """
+    sizes = tuple((float(L), float(W)) for L, W in sizes)
+    if len(supports) != len(sizes) or not sizes:
+        raise ValueError(f"one support per size: {len(sizes)} sizes, {len(supports)} supports")
+    s = tuple(None if v is None or not np.isfinite(v) else float(v) for v in supports)
+    d = sizes[0]
+
+    def higher(j: int, k: int) -> bool:
+        return s[j] is not None and s[k] is not None and s[k] >= s[j] + SCAN_MARGIN
+
+    def up(k: int) -> bool:
+        # (the scan's camera must itself fit the frame; against a default
+        # without a camera, that is all it needs)
+        return s[k] is not None and s[k] >= STILL_SUPPORTED and (s[0] is None or higher(0, k))
+
+    changed = lambda k: sum(sizes[k][a] != d[a] for a in (0, 1))  # noqa: E731
+    chosen = 0
+    for k in sorted((k for k in range(1, len(sizes)) if up(k)), key=lambda k: (changed(k), -s[k])):
+        if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
+            chosen = k
+    return SizeScan(sizes, s, tuple(float(v is not None) for v in s), 1, chosen, tuple([v] for v in s))
 
 
 def with_size(scan: SizeScan, size, supports) -> SizeScan:

@@ -5,6 +5,7 @@ the pipeline's estimate on a synthetic clip of an odd pitch."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -177,6 +178,42 @@ def test_an_open_dimension_leaves_the_other_to_choose():
     sizes = [(105, 68), (100, 68), (110, 68), (105, 64), (105, 72), (100, 72)]
     got = choose_size(sizes, [_sup(m) for m in (0.80, 0.90, 0.91, 0.70, 0.88, 0.99)])
     assert got.size == (105.0, 72.0)
+
+
+# a still's scan: the default first, then the grid's other sizes (lengths, then widths)
+_STILL_GRID = [(105, 68), (100, 64), (100, 68), (100, 72), (105, 64), (105, 72), (110, 64), (110, 68), (110, 72)]
+
+
+@pytest.mark.parametrize(
+    "supports, chosen",
+    [
+        ((0.80, 0.80, 0.81, 0.82, 0.79, 0.84, 0.80, 0.81, 0.83), (105, 68)),  # every size within the margin: the default stays
+        ((0.80, 0.70, 0.80, 0.90, 0.75, 0.96, 0.70, 0.80, 0.90), (105, 72)),  # a penalty view: 100-110 x 72 tie, the nearest to the default
+        ((0.80, 0.70, 0.80, 0.97, 0.75, 0.90, 0.70, 0.80, 0.90), (100, 72)),  # two steps off, higher than the one step by the margin
+        ((0.80, 0.70, 0.80, 0.93, 0.75, 0.90, 0.70, 0.80, 0.90), (105, 72)),  # two steps off, higher by less: the one step
+        ((0.80, 0.70, 0.93, 0.95, 0.75, 0.92, 0.70, 0.80, 0.90), (100, 68)),  # of the one-step sizes the highest
+        ((0.60, 0.60, 0.70, 0.75, 0.65, 0.79, 0.60, 0.70, 0.78), (105, 68)),  # higher by the margin, but none fits (STILL_SUPPORTED)
+        ((0.76, None, None, 0.75, 0.70, 0.79, None, 0.74, 0.95), (110, 72)),  # sizes without a camera left out
+        ((None, 0.75, 0.79, 0.95, 0.70, 0.91, 0.70, 0.78, 0.90), (105, 72)),  # no default camera: the nearest that fits
+        ((0.80, float("nan"), 0.80, 0.80, 0.80, 0.80, 0.80, 0.80, 0.80), (105, 68)),  # NaN is no support
+    ],
+)
+def test_choose_still_size_rule(supports, chosen):
+    from arstream.pitch_size import choose_still_size
+
+    got = choose_still_size(_STILL_GRID, supports)
+    assert got.size == chosen and got.frames == 1
+    assert got.coverage == tuple(float(s is not None and np.isfinite(s)) for s in supports)
+    assert ("kept" if chosen == (105, 68) else "chosen") + " by line support on 1 frame: " in got.describe()
+
+
+def test_choose_still_size_refuses_mismatched_supports():
+    from arstream.pitch_size import choose_still_size
+
+    with pytest.raises(ValueError, match="one support per size: 9 sizes, 8 supports"):
+        choose_still_size(_STILL_GRID, [0.9] * 8)
+    with pytest.raises(ValueError, match="one support per size: 0 sizes, 0 supports"):
+        choose_still_size([], [])
 
 
 def _noisy(n, seed, lo=0.80, hi=0.99):
@@ -645,3 +682,56 @@ def test_register_image_estimates_an_odd_still_s_size():
     given = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
     assert given.info["pitch"].source == "given"
     assert error_1280(unknown) < 2.0 < 5.0 < error_1280(given)
+
+
+def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
+    # a realistic synthetic penalty-area still of a 107 x 73 m pitch whose
+    # camera at 105 x 68 is on the wrong paint, tens of px off (its markings
+    # fit it poorly: line support below SCAN_BELOW). Refining the size from
+    # that camera cannot reach the right one, so the still is registered at
+    # the scan's other sizes: 100, 105 and 110 x 72 tie (the view does not
+    # show the length) and the one nearest 105 x 68 is taken
+    from arstream.evaluate import frame_error
+    from arstream.initialise import register_image
+    from arstream.pitch_size import SCAN_BELOW, corresponding_samples
+    from arstream.support import bright_mask, line_support, marking_points
+    from arstream.synth import SynthClip
+
+    clip = SynthClip("real-penalty", seed=4, frames=200)
+    assert (clip.pitch.length, clip.pitch.width) == (107.0, 73.0)
+    img, truth = clip.render(25), clip.camera(25)
+
+    def error_1280(est):
+        pts, moved = corresponding_samples(clip.pitch, est.info["pitch"].model())
+        return frame_error(truth, est.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+
+    given = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
+    assert line_support(given.camera, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share < SCAN_BELOW
+    unknown = register_image(img, pixel_aspect=float(clip.pixel_aspect))
+    made_at = unknown.info["pitch"]
+    assert made_at.scan is not None and made_at.scan.size == (105.0, 72.0), made_at.describe()
+    assert made_at.source in ("scanned", "estimated") and "chosen by line support on 1 frame" in made_at.describe()
+    assert abs(made_at.width - 73.0) < 1.5, made_at.describe()
+    assert error_1280(unknown) < 3.0 and error_1280(given) > 20.0, (error_1280(unknown), error_1280(given))
+
+
+def test_register_image_finds_a_camera_at_another_size_where_105_x_68_has_none():
+    # a realistic synthetic wide still of a 106.5 x 74 m pitch that no
+    # camera at 105 x 68 fits (lost: the goal and penalty areas' sides off
+    # their paint); registered at the scan's other sizes, 105 x 72 fits
+    from arstream.evaluate import frame_error
+    from arstream.initialise import register_image
+    from arstream.pitch_size import STILL_SUPPORTED, corresponding_samples
+    from arstream.synth import SynthClip
+
+    clip = SynthClip("real-wide", seed=7, frames=200)
+    assert (clip.pitch.length, clip.pitch.width) == (106.5, 74.0)
+    img, truth = clip.render(150), clip.camera(150)
+    given = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
+    assert given.camera is None and given.status == "lost"
+    unknown = register_image(img, pixel_aspect=float(clip.pixel_aspect))
+    made_at = unknown.info["pitch"]
+    assert made_at.scan is not None and made_at.scan.median[0] is None and made_at.scan.median[made_at.scan.chosen] >= STILL_SUPPORTED, made_at.describe()
+    pts, moved = corresponding_samples(clip.pitch, made_at.model())
+    err = frame_error(truth, unknown.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+    assert err < 5.0 and abs(made_at.width - 74.0) < 2.5, (err, made_at.describe())
