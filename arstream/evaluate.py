@@ -26,7 +26,7 @@ from arstream.sink import read_jsonl
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
-__all__ = ["Score", "FrameError", "frame_error", "score", "score_files", "format_table"]
+__all__ = ["Score", "FrameError", "frame_error", "distance_1280", "score", "score_files", "format_table"]
 
 THRESHOLDS = (5, 10, 20)
 
@@ -111,6 +111,38 @@ def frame_error(truth: Camera, pred: Camera, size: tuple[int, int], pitch_points
         if best is None or m < best.mean:
             best = FrameError(mean=m, worst=float(d.max()), n_points=len(d), symmetry=k)
     return best
+
+
+def distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, got_pitch: PitchModel | None = None, *, pixel_aspect: float = 1.0) -> float:
+    """Mean distance between two cameras of one frame over the markings in the
+    reference's view, in pixels of the frame shown 1280 wide (square pixels):
+    how the real material's cameras are judged against its reference cameras.
+
+    Parameters
+    ----------
+    ref : Camera, the reference (frame pixels), on ``pitch``'s markings
+    got : Camera of the same frame, on ``got_pitch``'s markings where it was
+        made at another size (the same points of the same markings,
+        :func:`arstream.pitch_size.corresponding_samples`)
+    size : (width, height) of the frame, pixels
+    pitch : PitchModel of the reference
+    got_pitch : PitchModel ``got`` was made at (default ``pitch``)
+    pixel_aspect : a pixel's width over its height (the frame shown with
+        square pixels)
+
+    Returns
+    -------
+    float, NaN when no marking is in the reference's view. No symmetry is
+    applied: the pitch's side is part of the answer.
+    """
+    from arstream.pitch_size import corresponding_samples
+
+    if pixel_aspect != 1.0:
+        ref, got = (Camera(K=np.diag([pixel_aspect, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, got))
+        size = (round(size[0] * pixel_aspect), size[1])
+    pts, moved = corresponding_samples(pitch, got_pitch or pitch)
+    err = frame_error(ref, got, size, pts, pitch.symmetries[:1], moved)
+    return float("nan") if err is None else err.mean * 1280.0 / size[0]
 
 
 def _ground_under_centre(truth: Camera, pred: Camera, size) -> np.ndarray | None:

@@ -604,8 +604,10 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
 
     With ``estimate_size`` (and the frame), ``pitch`` is a prior, not a
     fact: the size the view constrains is estimated with the camera
-    (:func:`size_from_view`) and the camera made with it; the size is in
-    ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
+    (:func:`size_from_view`) and the camera made with it, after the still
+    is registered at the scan's grid of sizes where its markings fit
+    ``pitch`` poorly or no camera fits there (:func:`size_from_scan`); the
+    size is in ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
     """
     W, H = size
     pitch = pitch or PitchModel()
@@ -805,11 +807,13 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     pixels) or a "lost" estimate with the reason.
 
     ``pitch`` is the pitch's size where it is known. Without it the size is
-    a per-still unknown: the camera is made at 105 x 68 m, then the size the
+    a per-still unknown: the camera is made at 105 x 68 m (or, where its
+    markings fit that poorly or none fits, at the size of the scan's grid
+    whose camera they fit best: :func:`size_from_scan`), then the size the
     view constrains is estimated with it (:func:`size_from_view`). The size
     the camera was made at is in ``info["pitch"]``
-    (:class:`arstream.pitch_size.PitchSize`: "given", "estimated" or
-    "default").
+    (:class:`arstream.pitch_size.PitchSize`: "given", "estimated",
+    "scanned" or "default").
 
     The picture inside black bars (:func:`arstream.imaging.active_area`) is
     analysed on its own, with the frame's principal point (its centre), at

@@ -37,6 +37,13 @@ throughout the clip (:func:`higher_throughout`).
 Line support (docs/evaluate.md) needs no ground truth and judges a whole clip:
 a wrong size leaves every view's far markings off their paint.
 
+A still has one view: :func:`estimate_view_size` refines the size it
+constrains from its camera at 105 x 68. Where that camera fits the
+markings poorly (line support below :data:`SCAN_BELOW`) or there is none,
+the still is registered at the grid's sizes and :func:`choose_still_size`
+takes one by the support of each size's camera
+(:func:`arstream.initialise.size_from_scan`).
+
 Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
 spot); pixels of the views' frames.
 """

@@ -21,7 +21,7 @@ rows: a 2.35:1 picture in 16:9) or ``pillar:0.125`` (the left and right
 16 without its AVX-512 code (the same bytes on every processor,
 :func:`real_perturbed.x264_options`). Distances are means over the markings in
 the reference's view, in pixels of a 1280-wide frame
-(:func:`real_footage.distance_1280`). The material is read from
+(:func:`arstream.evaluate.distance_1280`). The material is read from
 ``../shared/data/real-broadcast`` (skipped with a message where it is absent).
 """
 
@@ -44,7 +44,8 @@ from arstream.evaluate_video import evaluate_video  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
-from real_footage import SHARED, _fmt, distance_1280, pitch_args, references  # noqa: E402
+from arstream.evaluate import distance_1280  # noqa: E402
+from real_footage import SHARED, _fmt, pitch_args, references  # noqa: E402
 from real_graphics import barred  # noqa: E402
 from real_perturbed import x264_options  # noqa: E402
 

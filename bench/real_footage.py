@@ -34,11 +34,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from arstream.evaluate import frame_error  # noqa: E402
+from arstream.evaluate import distance_1280  # noqa: E402
 from arstream.evaluate_video import draw_overlay, evaluate_video  # noqa: E402
 from arstream.initialise import register_image  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
-from arstream.pitch_size import corresponding_samples  # noqa: E402
 from arstream.support import bright_mask, line_support, marking_points  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
@@ -64,20 +63,6 @@ def references(item: str) -> dict[int, tuple[Camera, PitchModel]]:
     return out
 
 
-def distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, aspect: float = 1.0, got_pitch: PitchModel | None = None) -> float:
-    """Mean distance (pixels of the frame shown 1280 wide) between the markings
-    in the reference's view projected by both cameras: the reference's on
-    its ``pitch``, ``got`` on ``got_pitch`` where it was made at another size
-    (the same points of the same markings,
-    :func:`arstream.pitch_size.corresponding_samples`)."""
-    if aspect != 1.0:
-        ref, got = (Camera(K=np.diag([aspect, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, got))
-        size = (round(size[0] * aspect), size[1])
-    pts, moved = corresponding_samples(pitch, got_pitch or pitch)
-    err = frame_error(ref, got, size, pts, pitch.symmetries[:1], moved)
-    return float("nan") if err is None else err.mean * 1280.0 / size[0]
-
-
 def still_rows(sheets: Path | None) -> list[dict]:
     rows, overlays = [], []
     items = [(s, SHARED / "stills" / f"{s}.png", 1.0, 0) for s in STILLS]
@@ -93,7 +78,7 @@ def still_rows(sheets: Path | None) -> list[dict]:
         pitch = None if made_at is None else made_at.model()
         sup = None if cam is None else frame_support(img, cam, pitch)
         refs = references("sequence_epl" if name.startswith("sequence") else name)
-        d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], aspect, pitch) if cam is not None and frame in refs else float("nan")
+        d = distance_1280(*refs[frame][:1], cam, (W, H), refs[frame][1], pitch, pixel_aspect=aspect) if cam is not None and frame in refs else float("nan")
         rows.append({"item": name, "status": est.status, "support": sup, "distance_1280": d, "seconds": seconds, "pitch": None if made_at is None else made_at.describe()})
         overlays.append(draw_overlay(img, cam, f"{name}: {est.status}" + (f"  support {sup:.2f}" if sup is not None else ""), pitch=pitch, pixel_aspect=aspect))
     if sheets is not None:

@@ -44,7 +44,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from arstream.evaluate_video import draw_overlay  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
-from real_footage import CLIPS, EPL_ASPECT, SHARED, STILLS, _register, distance_1280, reference_frames, references  # noqa: E402
+from arstream.evaluate import distance_1280  # noqa: E402
+from real_footage import CLIPS, EPL_ASPECT, SHARED, STILLS, _register, reference_frames, references  # noqa: E402
 
 #: pitch sizes of the clips whose pitch is not 105 x 68 (bench/real_footage.py --pitch)
 PITCHES = {"artificial_turf_multisport": (100.0, 68.0)}
@@ -252,7 +253,7 @@ def run(variants, prefixes=None, show: bool = False, draw: Path | None = None) -
             d = float("nan")
             if cam is not None:
                 got += 1
-                d = distance_1280(truth, cam, (W, H), pitch, aspect, est.info["pitch"].model())
+                d = distance_1280(truth, cam, (W, H), pitch, est.info["pitch"].model(), pixel_aspect=aspect)
                 near += d <= 5.0
                 wrong += not d <= 20.0
             if show:

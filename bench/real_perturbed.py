@@ -20,7 +20,7 @@ Usage::
                                    [--frames N] [--pitch NAME=LxW ...] [--keep DIR]
 
 Distances are means over the markings in the full-size camera's view, in
-pixels of a 1280-wide frame (:func:`real_footage.distance_1280`). The
+pixels of a 1280-wide frame (:func:`arstream.evaluate.distance_1280`). The
 material is read from ``../shared/data/real-broadcast`` (skipped with a
 message where it is absent).
 """
@@ -48,7 +48,8 @@ from arstream.source import i420_planes  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
 from encoder_reproducibility import capabilities  # noqa: E402
-from real_footage import SHARED, _fmt, distance_1280, pitch_args, references  # noqa: E402
+from arstream.evaluate import distance_1280  # noqa: E402
+from real_footage import SHARED, _fmt, pitch_args, references  # noqa: E402
 from real_graphics import dim, soft  # noqa: E402
 
 #: the frame rates MPEG-2 can code

@@ -122,3 +122,26 @@ def test_a_camera_made_at_another_size_is_judged_on_its_own_markings():
     rec = [{"frame": 0, "status": "ok", **cam.to_dict()}]
     assert score(rec, rec, SIZE, painted, pred_pitch=PitchModel(110.0, 68.0)).median < 1e-9
     assert score(rec, rec, SIZE, painted, pred_pitch=PitchModel(105.0, 72.0)).median > 1.0
+
+
+def test_distance_1280_between_a_camera_and_its_reference():
+    # the real material's measure: the mean distance over the reference's
+    # markings in view, in px of the frame shown 1280 wide with square pixels
+    from arstream.evaluate import distance_1280
+    from cameras import looking_at
+
+    ref = looking_at((0.0, -30.0, 40.0), (0.0, 0.0, 0.0), f=1400.0, size=SIZE)
+    pitch = PitchModel()
+    K = ref.K.copy()
+    K[0, 2] += 7.0  # (every projection moves 7 px right)
+    moved = Camera(K=K, R=ref.R, t=ref.t, dist=ref.dist)
+    assert distance_1280(ref, ref, SIZE, pitch) < 1e-9
+    assert np.isclose(distance_1280(ref, moved, SIZE, pitch), 7.0, atol=1e-6)
+    # a 640-wide frame: 7 px there are 14 px of a 1280-wide one
+    assert np.isclose(distance_1280(ref, moved, (640, 360), pitch), 14.0, atol=1e-6)
+    # pixels twice as wide as high: shown with square pixels the shift is 14 px of a 2560-wide frame
+    assert np.isclose(distance_1280(ref, moved, SIZE, pitch, pixel_aspect=2.0), 7.0, atol=1e-6)
+    # the truth's camera made at another length draws the circle and halfway line where they are painted
+    assert distance_1280(ref, ref, SIZE, pitch, PitchModel(110.0, 68.0)) < 1e-9
+    away = looking_at((0.0, -30.0, 40.0), (0.0, -300.0, 40.0), f=1400.0, size=SIZE)
+    assert np.isnan(distance_1280(away, ref, SIZE, pitch))

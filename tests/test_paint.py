@@ -19,7 +19,7 @@ import pytest
 
 from arstream.detect import detect
 from arstream.detect.paint import grass_beside, paint_lines, paint_mask
-from arstream.evaluate import frame_error
+from arstream.evaluate import distance_1280, frame_error
 from arstream.initialise import paint_view, register_frame
 from arstream.solve_lines import cameras_from_line_pairs
 from geometry.lines import line_through
@@ -346,16 +346,6 @@ def _reference(item: str, frame: int = 0) -> tuple[Camera, PitchModel, dict]:
     return Camera.from_dict(entry["camera"]), PitchModel(p["length"], p["width"]), entry
 
 
-def _distance_1280(ref: Camera, got: Camera, size, pitch: PitchModel, got_pitch: PitchModel | None = None) -> float:
-    """Mean distance over the markings in the reference's view, px of a 1280-wide
-    frame; ``got`` on its own pitch's markings where it was made at another size."""
-    from arstream.pitch_size import corresponding_samples
-
-    pts, moved = corresponding_samples(pitch, got_pitch or pitch)
-    err = frame_error(ref, got, size, pts, pitch.symmetries[:1], moved)  # (no symmetry: the side is part of the answer)
-    return err.mean * 1280.0 / size[0]
-
-
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 @pytest.mark.parametrize("item", STILLS)
 def test_register_a_real_still(item):
@@ -372,7 +362,7 @@ def test_register_a_real_still(item):
     sup = line_support(est.camera, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points(made_at.model())).share
     assert sup >= MIN_SUPPORT, sup
     ref, pitch, _ = _reference(item)
-    d = _distance_1280(ref, est.camera, (W, H), pitch, made_at.model())
+    d = distance_1280(ref, est.camera, (W, H), pitch, made_at.model())
     assert d <= MAX_DISTANCE_1280, d
 
 
@@ -396,7 +386,7 @@ def test_register_a_resized_premier_league_frame(frame):
     # distances in pixels of the frame as shown (square pixels, 16:9), 1280 wide
     a = 16 / 9
     shown = [Camera(K=np.diag([a, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, cam)]
-    assert _distance_1280(*shown, (round(W * a), H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(*shown, (round(W * a), H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
 
 
 def _clip_frame(k: int, clip: str = "artificial_turf_multisport") -> np.ndarray:
@@ -420,7 +410,7 @@ def test_register_a_centre_circle_frame_of_the_turf_clip(frame):
     est = register_frame(detect(img), (W, H), image=img, pitch=PitchModel(100.0, 68.0))
     assert est.status == "ok", est.info
     ref, pitch, _ = _reference("artificial_turf_multisport", frame)
-    assert _distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, (W, H), pitch) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -444,13 +434,13 @@ def test_the_circle_family_member_nearest_the_right_camera_is_refined_before_it_
     pp = np.array([(W - 1) / 2, (H - 1) / 2])
 
     def nearest(cams):
-        return min(_distance_1280(ref, c, (W, H), ref_pitch) for c in cams)
+        return min(distance_1280(ref, c, (W, H), ref_pitch) for c in cams)
 
     assert nearest(circle_view_cameras(view, (W, H), principal_point=pp, pitch=pitch, circles=d.ellipses, lines=d.lines)) > 50
     assert nearest(circle_view_cameras(view, (W, H), principal_point=pp, pitch=pitch, circles=d.ellipses, lines=d.lines, refine=True)) <= MAX_DISTANCE_1280
     est = register_frame(d, (W, H), image=img, pitch=pitch)
     assert est.status == "ok", est.info
-    assert _distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -471,7 +461,7 @@ def test_a_still_keeps_the_camera_that_explains_its_paint():
     d = detect(img)
     est = register_frame(d, (W, H), image=img, pitch=pitch)
     assert est.status == "ok", est.info
-    assert _distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -490,7 +480,7 @@ def test_a_still_is_not_drawn_along_the_edges_of_a_running_track():
     ref, ref_pitch, _ = _reference("israel_league_wide", 400)
     assert on_lines(ref, img, white_mask(img), ref_pitch) >= ON_LINES
     est = register_frame(detect(img), (W, H), image=img)
-    assert est.status == "lost" or _distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280, est.info
+    assert est.status == "lost" or distance_1280(ref, est.camera, (W, H), ref_pitch) <= MAX_DISTANCE_1280, est.info
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -511,7 +501,7 @@ def test_a_still_in_a_pillarbox_is_registered_from_its_picture():
     est = register_image(img)
     assert est.status == "ok", est.info
     ref, pitch, _ = _reference("world_cup_2006")
-    assert _distance_1280(ref, est.camera, (W, H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, (W, H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
 
 
 def test_paint_view_tracks_pixels_without_finding_lines_first():
@@ -698,7 +688,7 @@ def test_long_lens_penalty_views_register_from_their_arc():
             if est.camera is None:
                 continue
             ref, pitch, _ = _reference("israel_league_wide", k)
-            d = _distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model())
+            d = distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model())
             near += d <= MAX_DISTANCE_1280
             if d > 20.0:
                 wrong.append((k, d))
@@ -750,7 +740,7 @@ def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
     img = _clip_frame(275, "israel_league_wide")
     est = register_image(barred(img, "pillar:0.125"))
     ref, pitch, _ = _reference("israel_league_wide", 275)
-    assert est.camera is None or _distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280, est.info
+    assert est.camera is None or distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280, est.info
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -773,7 +763,7 @@ def test_a_longer_lens_view_is_not_drawn_from_a_camera_twice_as_far():
     truth = _zoom_camera(ref, img.shape[1], img.shape[0])
     assert along_support(truth, bright_mask(cv2.cvtColor(big, cv2.COLOR_BGR2GRAY)), pitch) >= 0.95 > MIN_SIDES
     est = register_image(big)
-    assert est.camera is None or _distance_1280(truth, est.camera, big.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280, est.info
+    assert est.camera is None or distance_1280(truth, est.camera, big.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280, est.info
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -804,7 +794,7 @@ def test_a_penalty_view_flipped_left_to_right_registers_as_the_view_itself():
     assert len(cameras_along_circle(*args, **kw)) == 18
     est = register_image(flipped)
     assert est.camera is not None, est.info
-    assert _distance_1280(mirrored(ref, W), est.camera, (W, H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(mirrored(ref, W), est.camera, (W, H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
 
 
 def _paint_alone(img: np.ndarray, pitch, **kw):
@@ -839,7 +829,7 @@ def test_a_long_lens_penalty_view_tries_further_splits_of_its_lines(frame):
     assert rp is None or sp < MORE_SPLITS_BELOW
     est = register_image(img)
     assert est.camera is not None, est.info
-    assert _distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, img.shape[1::-1], pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -860,4 +850,4 @@ def test_a_still_whose_paint_gives_nothing_looks_again_at_fainter_paint():
     est = register_image(img)
     assert est.camera is not None, est.info
     assert est.info["support"] >= PAINT_CHECK
-    assert _distance_1280(ref, est.camera, size, pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, est.camera, size, pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280

@@ -5,6 +5,8 @@ the pipeline's estimate on a synthetic clip of an odd pitch."""
 
 from __future__ import annotations
 
+import json
+
 import cv2
 import numpy as np
 import pytest
@@ -713,6 +715,9 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     assert made_at.source in ("scanned", "estimated") and "chosen by line support on 1 frame" in made_at.describe()
     assert abs(made_at.width - 73.0) < 1.5, made_at.describe()
     assert error_1280(unknown) < 3.0 and error_1280(given) > 20.0, (error_1280(unknown), error_1280(given))
+    # (register --json's "pitch" entry carries the scan: docs/formats.md)
+    entry = json.loads(json.dumps(made_at.to_dict()))
+    assert entry["scan"]["frames"] == 1 and entry["scan"]["sizes"][0] == [105.0, 68.0] and entry["scan"]["sizes"][entry["scan"]["chosen"]] == [105.0, 72.0]
 
 
 def test_register_image_finds_a_camera_at_another_size_where_105_x_68_has_none():

@@ -25,7 +25,7 @@ from arstream.pipeline import process
 from arstream.support import jitter_proxy
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
-from test_paint import _distance_1280  # (the mean distance to a reference camera, px @1280)
+from arstream.evaluate import distance_1280  # (the mean distance to a reference camera, px @1280)
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data" / "real-broadcast"
@@ -56,7 +56,7 @@ def _run(tmp_path, clip: str, pitch=None):
             dist[frame] = np.inf
             continue
         got = Camera(K=np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ()))
-        dist[frame] = _distance_1280(ref, got, (1280, 720), ref_pitch)
+        dist[frame] = distance_1280(ref, got, (1280, 720), ref_pitch)
     return s, score, dist
 
 
@@ -87,7 +87,7 @@ def test_artificial_turf_with_no_pitch_size(tmp_path):
     assert score.coverage >= 0.95 and score.support_median >= 0.8 and score.support_ge_0_7 >= 0.9, score
     assert score.drawn_below_0_5 == 0, score
     by_frame = {r["frame"]: r for r in records}
-    dist = [_distance_1280(ref, Camera.from_dict(by_frame[k]), (1280, 720), ref_pitch) if by_frame[k].get("K") else np.inf for k, (ref, ref_pitch) in _references("artificial_turf_multisport").items()]
+    dist = [distance_1280(ref, Camera.from_dict(by_frame[k]), (1280, 720), ref_pitch) if by_frame[k].get("K") else np.inf for k, (ref, ref_pitch) in _references("artificial_turf_multisport").items()]
     assert len(dist) == 8 and np.mean([d <= 5.0 for d in dist]) >= 0.9, dist
 
 
@@ -160,7 +160,7 @@ def test_a_wrong_tripod_centre_is_left(tmp_path):
     got = [json.loads(line) for line in out.read_text().splitlines()]
     ref = [json.loads(line) for line in full.read_text().splitlines()][60:]
     assert len(got) == len(ref) == 120
-    d = [_distance_1280(Camera.from_dict(r), Camera.from_dict(g), (1280, 720), PitchModel()) for g, r in zip(got[60:], ref[60:]) if g.get("K") and r.get("K")]
+    d = [distance_1280(Camera.from_dict(r), Camera.from_dict(g), (1280, 720), PitchModel()) for g, r in zip(got[60:], ref[60:]) if g.get("K") and r.get("K")]
     # frames 60-119 of the copy: main 0 % within 5 px (median 20.6 px), 80 %
     # at stop 39 (median 3.5 px; the centres still differ by 2.7 m, about as
     # much as single views fix it along the line of sight). Since two views
@@ -190,7 +190,7 @@ def test_a_soft_copy_from_the_centre_circle_view_is_triangulated(tmp_path):
     got = [json.loads(line) for line in out.read_text().splitlines()]
     assert len(got) == 344
     refs = _references("israel_league_wide")
-    d = np.array([_distance_1280(ref, Camera.from_dict(got[k - 60]), (1280, 720), pitch) if got[k - 60].get("K") else np.inf for k, (ref, pitch) in sorted(refs.items())])
+    d = np.array([distance_1280(ref, Camera.from_dict(got[k - 60]), (1280, 720), pitch) if got[k - 60].get("K") else np.inf for k, (ref, pitch) in sorted(refs.items())])
     assert len(d) == 13 and np.median(d) < 5.0 and d.max() < 20.0, np.round(d, 1)
 
 
@@ -227,7 +227,7 @@ def test_a_pillarboxed_clip_is_tracked_on_its_picture(tmp_path):
     assert s.picture == [160, 0, 1120, 720]
     got = [json.loads(line) for line in out.read_text().splitlines()]
     refs = _references("artificial_turf_multisport")
-    d = [_distance_1280(ref, Camera.from_dict(got[k]), (1280, 720), p) if got[k].get("K") else np.inf for k, (ref, p) in sorted(refs.items()) if k < 30]
+    d = [distance_1280(ref, Camera.from_dict(got[k]), (1280, 720), p) if got[k].get("K") else np.inf for k, (ref, p) in sorted(refs.items()) if k < 30]
     assert len(d) == 2 and max(d) <= 5.0, np.round(d, 1)
     assert sum(g.get("K") is not None for g in got) >= 29
 
@@ -269,7 +269,7 @@ def test_a_480p_still_keeps_its_markings_on_the_grass(tmp_path):
     S = np.diag([1280 / 848, 720 / 478, 1.0])
 
     def off(cam):
-        return _distance_1280(full, Camera(K=S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist), (1280, 720), PitchModel())
+        return distance_1280(full, Camera(K=S @ cam.K, R=cam.R, t=cam.t, dist=cam.dist), (1280, 720), PitchModel())
 
     # the full-size run is itself 5-10 px off here (its far touchline on the
     # bright edge of the grass: docs/real-footage.md), and these are single
@@ -335,7 +335,7 @@ def test_premier_league_sequence_tracked(tmp_path):
         got = Camera(K=np.diag([a, 1.0, 1.0]) @ np.array(r["K"]), R=np.array(r["R"]), t=np.array(r["t"]), dist=tuple(r.get("dist") or ()))
         ref = Camera(K=np.diag([a, 1.0, 1.0]) @ ref.K, R=ref.R, t=ref.t, dist=ref.dist)
         # in pixels of the frame shown 16:9 (910 x 512), then of a 1280-wide one
-        d = _distance_1280(ref, got, (round(512 * a), 512), pitch)
+        d = distance_1280(ref, got, (round(512 * a), 512), pitch)
         assert d <= 5.0, (frame, d)
 
 
@@ -367,7 +367,6 @@ def test_a_fresh_paint_camera_keeps_the_tripod_of_the_moment_before(tmp_path):
     # on the fourth frame (main at 2d90d92). With no tripod centre frozen yet,
     # the camera of a moment before is the tripod a fresh paint camera is
     # checked against: such a camera is refused until a second one agrees
-    from real_footage import distance_1280
     from real_perturbed import _at_1280
 
     # (the whole rest of the clip: x264's choices for its first frames depend on those after them)

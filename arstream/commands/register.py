@@ -17,9 +17,11 @@ def register(subparsers) -> None:
             "(penalty areas), and refine against every visible marking; on real broadcast frames, "
             "from the straight lines of the white paint. A camera is reported only when the "
             "frame's paint backs it (line support >= 0.7, docs/evaluate.md). Without --pitch the "
-            "pitch's size is an unknown: the camera is made at 105 x 68 m, then the size the view "
-            "constrains (e.g. the width when both touchlines are seen) is estimated with it and kept "
-            "when the paint backs it as well. Prints the camera and the size it was made at "
+            "pitch's size is an unknown: the camera is made at 105 x 68 m (where the markings fit "
+            "that poorly, line support below 0.95, or no camera fits, the still is registered at "
+            "100/105/110 x 64/68/72 m and the size whose camera they fit best taken: 10-50 s), then "
+            "the size the view constrains (e.g. the width when both touchlines are seen) is "
+            "estimated with it and kept when the paint backs it as well. Prints the camera and the size it was made at "
             "(--json: a cameras.jsonl record with a \"pitch\" entry)."
         ),
     )
@@ -27,7 +29,7 @@ def register(subparsers) -> None:
     from arstream.framein import add_frame_arguments
 
     add_frame_arguments(p, draw_help="write the image with the projected pitch model drawn over it")
-    p.add_argument("--pitch", type=_pitch, default=None, metavar="LxW", help="pitch size in metres, where known (default: estimated from 105x68, as far as the view constrains it)")
+    p.add_argument("--pitch", type=_pitch, default=None, metavar="LxW", help="pitch size in metres, where known (default: estimated from 105x68, or from the scan's size, as far as the view constrains it)")
     p.add_argument(
         "--pixel-aspect", type=_positive(float), default=1.0, metavar="A",
         help="a pixel's width over its height, for frames resized from another shape (e.g. 1.7778 for 16:9 squeezed to a square); the camera's K then has K[1][1]/K[0][0] = A (default 1)",
