@@ -727,16 +727,17 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     """``est`` (:func:`register_frame` at ``pitch``) with the still's size
     estimated (``register_frame(estimate_size=True)``): from its camera
     (:func:`size_from_view`) where the frame's line support of it
-    (docs/evaluate.md) is at least :data:`arstream.pitch_size.SCAN_BELOW`,
-    else by registering the still at the scan's other sizes
-    (:func:`size_from_scan`), also where there is no camera. A frame
-    without a pitch stays as it is."""
+    (docs/evaluate.md) is at least :data:`arstream.pitch_size.SCAN_BELOW`
+    (or has too few markings in view to be measured), else by registering
+    the still at the scan's other sizes (:func:`size_from_scan`), also
+    where there is no camera. A frame without a pitch stays as it is."""
     if est.camera is None and est.info.get("reason") == "no pitch":
         return est
     luma = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
     view = paint_view(image, detections)
     fits = _line_support(est, luma, pitch)
-    if fits is not None and fits >= SCAN_BELOW:
+    # (a camera with too few markings in view for a line support is no poor fit)
+    if est.camera is not None and (fits is None or fits >= SCAN_BELOW):
         camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
         return replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
     got, made_at = size_from_scan(detections, size, image, est, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
