@@ -59,7 +59,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED", "STILL_OFF_SHARE"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -121,6 +121,15 @@ SCAN_MIN_FRAMES = 25
 #: support (issue 29's target for a still): a size whose best camera leaves
 #: a fifth of its markings off the paint fits the frame no better
 STILL_SUPPORTED = 0.8
+#: a size is higher than another on a still (:func:`choose_still_size`)
+#: only where its camera leaves at most this share of the other's markings
+#: off the paint (besides :data:`SCAN_MARGIN`): a wrong size leaves a far
+#: marking off its paint and the right one puts it on (the realistic
+#: synthetic stills' wrong cameras: 15-27 % off, the right size's 1-7 %),
+#: while on a frame whose view does not tell the sizes apart they share its
+#: misses (israel_league_wide frame 100 blurred 1.2 px, a long lens on the
+#: circle: 7-15 % off at every size, 105 x 68 the right one at 12 %)
+STILL_OFF_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -428,7 +437,8 @@ def choose_still_size(sizes, supports) -> SizeScan:
 
     One frame has no medians or blocks to compare: a size is *higher* than
     another when its camera's line support is higher by
-    :data:`SCAN_MARGIN`. A size may replace the default when its camera
+    :data:`SCAN_MARGIN` and it leaves at most :data:`STILL_OFF_SHARE` of the
+    other's share of markings off the paint. A size may replace the default when its camera
     fits the frame (line support at least :data:`STILL_SUPPORTED`) and is
     higher than the default's, or the default has no camera. Of those
     sizes, the nearest
@@ -456,7 +466,8 @@ def choose_still_size(sizes, supports) -> SizeScan:
     d = sizes[0]
 
     def higher(j: int, k: int) -> bool:
-        return s[j] is not None and s[k] is not None and s[k] >= s[j] + SCAN_MARGIN
+        # (by the margin, and explaining at least half of the markings j leaves off the paint)
+        return s[j] is not None and s[k] is not None and s[k] >= s[j] + SCAN_MARGIN and 1.0 - s[k] <= STILL_OFF_SHARE * (1.0 - s[j])
 
     def up(k: int) -> bool:
         # (the scan's camera must itself fit the frame; against a default
