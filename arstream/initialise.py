@@ -606,7 +606,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     fact: the size the view constrains is estimated with the camera
     (:func:`size_from_view`) and the camera made with it, after the still
     is registered at the scan's grid of sizes where its markings fit
-    ``pitch`` poorly or no camera fits there (:func:`size_from_scan`); the
+    ``pitch``'s camera poorly (:func:`size_from_scan`); the
     size is in ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
     """
     W, H = size
@@ -726,23 +726,28 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
 def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float) -> CameraEstimate:
     """``est`` (:func:`register_frame` at ``pitch``) with the still's size
     estimated (``register_frame(estimate_size=True)``): from its camera
-    (:func:`size_from_view`) where the frame's line support of it
-    (docs/evaluate.md) is at least :data:`arstream.pitch_size.SCAN_BELOW`
-    (or has too few markings in view to be measured), else by registering
-    the still at the scan's other sizes (:func:`size_from_scan`), also
-    where there is no camera. A frame without a pitch stays as it is."""
-    if est.camera is None and est.info.get("reason") == "no pitch":
+    (:func:`size_from_view`), kept where the frame's line support of that
+    camera at that size (docs/evaluate.md) is at least
+    :data:`arstream.pitch_size.SCAN_BELOW` (or has too few markings in view
+    to be measured); else the scan's size whose camera fits the frame
+    clearly better, if any (:func:`size_from_scan`).
+
+    A still without a camera at ``pitch`` stays "lost": with no camera to
+    compare against, another size's camera is not evidence of the size (an
+    ``israel_league_wide`` frame a third hidden by a bar, lost at 105 x 68,
+    gives at every 72 m wide size a camera with a line support of 0.97 that
+    is 13-22 px off: tests/test_paint.py)."""
+    if est.camera is None:
         return est
     luma = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
     view = paint_view(image, detections)
-    fits = _line_support(est, luma, pitch)
+    camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
+    own = replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
+    fits = _line_support(own, luma, made_at.model(pitch.line_width))
     # (a camera with too few markings in view for a line support is no poor fit)
-    if est.camera is not None and (fits is None or fits >= SCAN_BELOW):
-        camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
-        return replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
-    got, made_at = size_from_scan(detections, size, image, est, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
-    if got.camera is None:
-        return CameraEstimate.lost(0, 0.0, reason=f"{est.info.get('reason')}; nor at the pitch scan's other sizes")
+    if fits is None or fits >= SCAN_BELOW:
+        return own
+    got, made_at = size_from_scan(detections, size, image, own, fits, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
     return replace(got, info={**got.info, "pitch": made_at})
 
 
@@ -752,15 +757,15 @@ def _line_support(est: CameraEstimate, luma: np.ndarray, pitch: PitchModel) -> f
     return None if est.camera is None else line_support(est.camera, luma, marking_points(pitch)).share
 
 
-def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
+def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, fits: float, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
     """A still's pitch size and its camera when its camera at ``pitch`` fits
     the frame's markings poorly (line support below
-    :data:`arstream.pitch_size.SCAN_BELOW`) or there is none
-    (:func:`register_frame` with ``estimate_size``).
+    :data:`arstream.pitch_size.SCAN_BELOW`; :func:`register_frame` with
+    ``estimate_size``).
 
     A wrong size can put the camera on the wrong paint (the far touchline on
-    the boards' edge) or leave no camera the paint backs, and refining from
-    there does not reach the right one. The still is registered again at
+    the boards' edge), and refining from there does not reach the right
+    one. The still is registered again at
     each other size of the scan's grid (:data:`arstream.pitch_size.SCAN_LENGTHS`
     x :data:`arstream.pitch_size.SCAN_WIDTHS`, each camera held to the
     frame's paint as at ``pitch``), the size chosen by the line support of
@@ -774,8 +779,12 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     detections : the frame's Detections
     size : (width, height) of the frame, pixels
     image : (H, W, 3) uint8 BGR, the frame
-    est : CameraEstimate of the frame at ``pitch`` (:func:`register_frame`;
-        "lost" where the paint backed no camera)
+    est : CameraEstimate of the frame made at ``pitch``, with its camera and
+        the size estimated from it (:func:`size_from_view`; ``info["pitch"]``)
+    fits : the line support of ``est``'s camera at its size: the default's
+        entry of the scan (another size must beat the default camera as
+        its own estimate left it, as a clip's scan judges the estimate
+        from the default's views: :func:`arstream.pitch_size.with_size`)
     view : PaintView of the frame
     luma : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
     pitch : PitchModel ``est`` was made at (the grid's centre where on it)
@@ -786,19 +795,18 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     (CameraEstimate, PitchSize): the registration at the chosen size with
     the camera and support of :func:`size_from_view`, and its size, which
     carries the scan (:class:`arstream.pitch_size.SizeScan`, one frame):
-    "scanned" where the chosen grid size is kept as it is. ``est`` itself
-    (and ``pitch``'s size) where the default is kept.
+    "scanned" where the chosen grid size is kept as it is. Where the
+    default is kept, ``est`` and its size.
     """
     d = (float(pitch.length), float(pitch.width))
     sizes = [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
-    found = [est] + [register_frame(detections, size, principal_point=principal_point, pitch=PitchModel(L, W, pitch.line_width), estimate_k1=estimate_k1, image=image, min_support=min_support) for L, W in sizes[1:]]
-    scan = choose_still_size(sizes, [_line_support(e, luma, PitchModel(*sz, pitch.line_width)) for e, sz in zip(found, sizes)])
-    best = found[scan.chosen]
-    if best.camera is None:
-        return best, PitchSize(*d, source="default", views=1, scan=scan)
-    at = pitch if scan.chosen == 0 else PitchModel(*scan.size, pitch.line_width)
-    camera, got, sup = size_from_view(best.camera, best.info.get("support"), view, size, at, min_support)
-    if got.source == "default" and scan.chosen != 0:
+    found = [register_frame(detections, size, principal_point=principal_point, pitch=PitchModel(L, W, pitch.line_width), estimate_k1=estimate_k1, image=image, min_support=min_support) for L, W in sizes[1:]]
+    scan = choose_still_size(sizes, [fits] + [_line_support(e, luma, PitchModel(*sz, pitch.line_width)) for e, sz in zip(found, sizes[1:])])
+    if scan.chosen == 0:
+        return est, replace(est.info["pitch"], scan=scan)
+    best = found[scan.chosen - 1]
+    camera, got, sup = size_from_view(best.camera, best.info.get("support"), view, size, PitchModel(*scan.size, pitch.line_width), min_support)
+    if got.source == "default":
         got = PitchSize(*scan.size, source="scanned", views=1)
     return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
 
@@ -809,8 +817,8 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
 
     ``pitch`` is the pitch's size where it is known. Without it the size is
     a per-still unknown: the camera is made at 105 x 68 m (or, where its
-    markings fit that poorly or none fits, at the size of the scan's grid
-    whose camera they fit best: :func:`size_from_scan`), then the size the
+    markings fit that camera poorly, at the size of the scan's grid whose
+    camera they fit best: :func:`size_from_scan`), then the size the
     view constrains is estimated with it (:func:`size_from_view`). The size
     the camera was made at is in ``info["pitch"]``
     (:class:`arstream.pitch_size.PitchSize`: "given", "estimated",

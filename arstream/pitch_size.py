@@ -39,8 +39,7 @@ a wrong size leaves every view's far markings off their paint.
 
 A still has one view: :func:`estimate_view_size` refines the size it
 constrains from its camera at 105 x 68. Where that camera fits the
-markings poorly (line support below :data:`SCAN_BELOW`) or there is none,
-the still is registered at the grid's sizes and :func:`choose_still_size`
+markings poorly (line support below :data:`SCAN_BELOW`), the still is registered at the grid's sizes and :func:`choose_still_size`
 takes one by the support of each size's camera
 (:func:`arstream.initialise.size_from_scan`).
 
@@ -116,7 +115,7 @@ SCAN_WIDTHS = (64.0, 68.0, 72.0)
 #: fewest frames with a camera for a median line support to go by
 SCAN_MIN_FRAMES = 25
 #: a still registered at the scan's grid (a camera at the default size with
-#: a line support below :data:`SCAN_BELOW`, or none: :func:`choose_still_size`)
+#: a line support below :data:`SCAN_BELOW`: :func:`choose_still_size`)
 #: takes another size only where that size's camera has at least this line
 #: support (issue 29's target for a still): a size whose best camera leaves
 #: a fifth of its markings off the paint fits the frame no better
@@ -440,8 +439,8 @@ def choose_still_size(sizes, supports) -> SizeScan:
     :data:`SCAN_MARGIN` and it leaves at most :data:`STILL_OFF_SHARE` of the
     other's share of markings off the paint. A size may replace the default when its camera
     fits the frame (line support at least :data:`STILL_SUPPORTED`) and is
-    higher than the default's, or the default has no camera. Of those
-    sizes, the nearest
+    higher than the default's (a default without a camera is kept: no
+    baseline). Of those sizes, the nearest
     to it on the grid (fewest dimensions changed; of those, the highest
     support) is taken, and a farther one replaces it only when it is higher
     than that one too: sizes whose supports tie within the margin are ones
@@ -452,7 +451,8 @@ def choose_still_size(sizes, supports) -> SizeScan:
     ----------
     sizes : sequence of (length, width) metres, the default's first
     supports : the still's line support at each size (docs/evaluate.md; None:
-        no camera there)
+        no camera there); the default's is its camera's after the size
+        estimated from it (:func:`arstream.initialise.size_from_scan`)
 
     Returns
     -------
@@ -470,9 +470,9 @@ def choose_still_size(sizes, supports) -> SizeScan:
         return s[j] is not None and s[k] is not None and s[k] >= s[j] + SCAN_MARGIN and 1.0 - s[k] <= STILL_OFF_SHARE * (1.0 - s[j])
 
     def up(k: int) -> bool:
-        # (the scan's camera must itself fit the frame; against a default
-        # without a camera, that is all it needs)
-        return s[k] is not None and s[k] >= STILL_SUPPORTED and (s[0] is None or higher(0, k))
+        # (the scan's camera must itself fit the frame; a default without a
+        # camera is no baseline: another size's camera is then no evidence)
+        return s[k] is not None and s[k] >= STILL_SUPPORTED and higher(0, k)
 
     changed = lambda k: sum(sizes[k][a] != d[a] for a in (0, 1))  # noqa: E731
     chosen = 0
