@@ -5,6 +5,7 @@ the pipeline's estimate on a synthetic clip of an odd pitch."""
 
 from __future__ import annotations
 
+import functools
 import json
 
 import cv2
@@ -661,23 +662,29 @@ def test_a_still_that_fixes_no_dimension_keeps_the_prior():
         estimate_view_size(view.camera, np.zeros((0, 2)), SIZE)
 
 
+def _still_error_1280(clip, truth, est) -> float:
+    """Mean distance of a still's camera from the truth over the markings in
+    view, each on its own size's markings (px of a 1280-wide frame)."""
+    from arstream.evaluate import frame_error
+    from arstream.pitch_size import corresponding_samples
+
+    pts, moved = corresponding_samples(clip.pitch, est.info["pitch"].model())
+    return frame_error(truth, est.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+
+
 def test_register_image_estimates_an_odd_still_s_size():
     # a realistic synthetic wide still of a 107 x 74 m pitch (shadows, players,
     # graphics, compression's look): with no size given the camera is made at
     # 105 x 68, then at the size its view gives; given 105 x 68 it is several
     # px off, the far markings on the wrong paint
-    from arstream.evaluate import frame_error
     from arstream.initialise import register_image
-    from arstream.pitch_size import corresponding_samples
     from arstream.synth import SynthClip
 
     clip = SynthClip("real-wide", seed=3, frames=1)
     assert (clip.pitch.length, clip.pitch.width) == (107.0, 74.0)
     img, truth = clip.render(0), clip.camera(0)
 
-    def error_1280(est):
-        pts, moved = corresponding_samples(clip.pitch, est.info["pitch"].model())
-        return frame_error(truth, est.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+    error_1280 = functools.partial(_still_error_1280, clip, truth)
 
     unknown = register_image(img, pixel_aspect=float(clip.pixel_aspect))
     made_at = unknown.info["pitch"]
@@ -695,9 +702,8 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     # that camera cannot reach the right one, so the still is registered at
     # the scan's other sizes: 100, 105 and 110 x 72 tie (the view does not
     # show the length) and the one nearest 105 x 68 is taken
-    from arstream.evaluate import frame_error
     from arstream.initialise import register_image
-    from arstream.pitch_size import SCAN_BELOW, corresponding_samples
+    from arstream.pitch_size import SCAN_BELOW
     from arstream.support import bright_mask, line_support, marking_points
     from arstream.synth import SynthClip
 
@@ -705,9 +711,7 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     assert (clip.pitch.length, clip.pitch.width) == (107.0, 73.0)
     img, truth = clip.render(25), clip.camera(25)
 
-    def error_1280(est):
-        pts, moved = corresponding_samples(clip.pitch, est.info["pitch"].model())
-        return frame_error(truth, est.camera, clip.size, pts, clip.pitch.symmetries, moved).mean * 1280 / clip.size[0]
+    error_1280 = functools.partial(_still_error_1280, clip, truth)
 
     given = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
     assert line_support(given.camera, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share < SCAN_BELOW
