@@ -747,7 +747,7 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     # (a camera with too few markings in view for a line support is no poor fit)
     if fits is None or fits >= SCAN_BELOW:
         return own
-    got, made_at = size_from_scan(detections, size, image, own, fits, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
+    got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
     return replace(got, info={**got.info, "pitch": made_at})
 
 
@@ -757,7 +757,7 @@ def _line_support(est: CameraEstimate, luma: np.ndarray, pitch: PitchModel) -> f
     return None if est.camera is None else line_support(est.camera, luma, marking_points(pitch)).share
 
 
-def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, fits: float, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
+def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
     """A still's pitch size and its camera when its camera at ``pitch`` fits
     the frame's markings poorly (line support below
     :data:`arstream.pitch_size.SCAN_BELOW`; :func:`register_frame` with
@@ -780,11 +780,11 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, fit
     size : (width, height) of the frame, pixels
     image : (H, W, 3) uint8 BGR, the frame
     est : CameraEstimate of the frame made at ``pitch``, with its camera and
-        the size estimated from it (:func:`size_from_view`; ``info["pitch"]``)
-    fits : the line support of ``est``'s camera at its size: the default's
-        entry of the scan (another size must beat the default camera as
-        its own estimate left it, as a clip's scan judges the estimate
-        from the default's views: :func:`arstream.pitch_size.with_size`)
+        the size estimated from it (:func:`size_from_view`; ``info["pitch"]``).
+        Its line support at that size is the default's entry of the scan:
+        another size must beat the default camera as its own estimate left
+        it, as a clip's scan judges the estimate from the default's views
+        (:func:`arstream.pitch_size.with_size`)
     view : PaintView of the frame
     luma : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
     pitch : PitchModel ``est`` was made at (the grid's centre where on it)
@@ -801,6 +801,7 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, fit
     d = (float(pitch.length), float(pitch.width))
     sizes = [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
     found = [register_frame(detections, size, principal_point=principal_point, pitch=PitchModel(L, W, pitch.line_width), estimate_k1=estimate_k1, image=image, min_support=min_support) for L, W in sizes[1:]]
+    fits = _line_support(est, luma, est.info["pitch"].model(pitch.line_width))
     scan = choose_still_size(sizes, [fits] + [_line_support(e, luma, PitchModel(*sz, pitch.line_width)) for e, sz in zip(found, sizes[1:])])
     if scan.chosen == 0:
         return est, replace(est.info["pitch"], scan=scan)
