@@ -29,6 +29,11 @@ from arstream.errors import ArstreamError, InputError
 from arstream.sink import read_jsonl
 from arstream.synth import generate
 
+# one worker of a parallel run (pytest-xdist) takes the whole module: its
+# fixtures (the archive, the Ray session) are made once, and two Ray clusters
+# are not started side by side
+pytestmark = pytest.mark.xdist_group("batch")
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAMES = 12
 # ``local_out``'s batch, and those that resume it or are compared with it, encode
