@@ -104,7 +104,6 @@ import dataclasses
 import glob
 import hashlib
 import json
-import multiprocessing
 import os
 import queue as queue_mod
 import shutil
@@ -117,6 +116,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 from arstream.errors import ArstreamError, InputError
+from arstream.workers import children_ignore_sigint, cores, terminate, worker_context
 
 __all__ = [
     "run",
@@ -720,46 +720,12 @@ class BatchInterrupted(KeyboardInterrupt):
 
 
 # --------------------------------------------------------------------------- engines
-def _cores() -> int:
-    try:
-        return max(len(os.sched_getaffinity(0)), 1)
-    except AttributeError:  # not Linux
-        return max(os.cpu_count() or 1, 1)
-
-
-@contextlib.contextmanager
-def _children_ignore_sigint():
-    """Spawned children inherit SIGINT as ignored from their first instruction
-    (the pool initializer would leave a window while they import)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-class _Crash(Exception):
-    """A worker died under a clip (segfault, out of memory, killed)."""
-
-
 #: Modules the local workers need, imported once by the fork server (not per worker).
 _PRELOAD = ["arstream.batch", "arstream.pipeline", "arstream.source", "arstream.sink", "render", "av", "cv2", "numpy"]
 
 
-def _worker_context():
-    """``forkserver`` where there is one: a server process started once, that has run
-    nothing (no GL context, no pipeline threads), imports the pipeline's modules once and
-    forks each worker from itself (a worker starts in milliseconds instead of re-importing
-    for a second); else ``spawn``. Never plain ``fork`` from the driver (its threads and
-    any GL state do not survive it)."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(_PRELOAD)
-        return ctx
-    return multiprocessing.get_context("spawn")
+class _Crash(Exception):
+    """A worker died under a clip (segfault, out of memory, killed)."""
 
 
 class _LocalEngine:
@@ -769,7 +735,7 @@ class _LocalEngine:
 
     def __init__(self, workers: int, want_progress: bool):
         self.workers = workers
-        self.ctx = _worker_context()
+        self.ctx = worker_context(_PRELOAD)
         self.want_progress = want_progress
         self.queue = None
         self.pool = None
@@ -779,14 +745,14 @@ class _LocalEngine:
     def _start(self) -> None:
         if self.want_progress:  # a fresh queue: a dead worker may have held the old one's lock
             self.queue = self.ctx.Queue()
-        cv_threads = max(1, _cores() // self.workers)
+        cv_threads = max(1, cores() // self.workers)
         self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=self.ctx, initializer=_init_local_worker, initargs=(self.queue, cv_threads))
 
     def capacity(self) -> int:
         return self.workers
 
     def submit(self, job: dict):
-        with _children_ignore_sigint():  # submit() spawns the workers
+        with children_ignore_sigint():  # submit() spawns the workers
             fut = self.pool.submit(process_clip, job)
         self.owner[fut] = self.pool
         return fut
@@ -821,17 +787,7 @@ class _LocalEngine:
             got[name] = (d, t)
 
     def abandon(self, handles: list) -> None:
-        procs = list((getattr(self.pool, "_processes", None) or {}).values())
-        self.pool.shutdown(wait=False, cancel_futures=True)
-        for p in procs:
-            with contextlib.suppress(Exception):
-                p.terminate()
-        for p in procs:
-            with contextlib.suppress(Exception):
-                p.join(5.0)
-                if p.is_alive():
-                    p.kill()
-                    p.join(5.0)
+        terminate(self.pool)
 
     def close(self) -> None:
         self.pool.shutdown(wait=True)
@@ -1154,11 +1110,11 @@ def run(
             return s
 
         if engine == "local":
-            n = min(int(workers) if workers else _cores(), len(todo))
+            n = min(int(workers) if workers else cores(), len(todo))
             eng = _LocalEngine(n, want_progress=progress is not None)
             # as many clips at once as cores: each one single-threaded (no thread
             # overhead, no oversubscription); fewer: each uses its share of the cores
-            threads = 1 if n >= _cores() else 0
+            threads = 1 if n >= cores() else 0
         else:
             eng = _RayEngine(workers, address, want_progress=progress is not None)
             threads = 1  # a task holds one CPU of the cluster (num_cpus=1)

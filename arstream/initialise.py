@@ -28,6 +28,7 @@ from arstream.estimate import CameraEstimate
 from arstream.pitch_size import SCAN_BELOW, SCAN_LENGTHS, SCAN_WIDTHS, PitchSize, choose_still_size, estimate_view_size
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
+from arstream.workers import map_in_processes
 from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, bright_mask, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
@@ -584,7 +585,7 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
     return None
 
 
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False) -> CameraEstimate:
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False, workers: int = 1) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
     enough line support). Returns a "lost" estimate when nothing fits.
@@ -608,13 +609,15 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     is registered at the scan's grid of sizes where its markings fit
     ``pitch``'s camera poorly (:func:`size_from_scan`); the
     size is in ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
+    The scan's sizes are registered on up to ``workers`` processes
+    (:func:`size_from_scan`; default 1: here, one after another).
     """
     W, H = size
     pitch = pitch or PitchModel()
     pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
     if estimate_size and image is not None:
         est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support)
-        return _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support)
+        return _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
     model = ModelSamples.from_pitch(pitch, 0.5)
     if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
         return CameraEstimate.lost(0, 0.0, reason="no pitch")
@@ -723,7 +726,7 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     return got.cameras[0], replace(got, cameras=()), sup
 
 
-def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float) -> CameraEstimate:
+def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float, workers: int = 1) -> CameraEstimate:
     """``est`` (:func:`register_frame` at ``pitch``) with the still's size
     estimated (``register_frame(estimate_size=True)``): from its camera
     (:func:`size_from_view`), kept where the frame's line support of that
@@ -747,7 +750,7 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     # (a camera with too few markings in view for a line support is no poor fit)
     if fits is None or fits >= SCAN_BELOW:
         return own
-    got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
+    got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support, workers=workers)
     return replace(got, info={**got.info, "pitch": made_at})
 
 
@@ -757,7 +760,15 @@ def _line_support(est: CameraEstimate, luma: np.ndarray, pitch: PitchModel) -> f
     return None if est.camera is None else line_support(est.camera, luma, marking_points(pitch)).share
 
 
-def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7):
+def _register_at(job) -> CameraEstimate:
+    """:func:`register_frame` of one size of a still's scan (a worker's job of
+    :func:`size_from_scan`): ``job`` is (detections, size, principal_point,
+    pitch, estimate_k1, image, min_support)."""
+    detections, size, pp, pitch, estimate_k1, image, min_support = job
+    return register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support)
+
+
+def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7, workers: int = 1):
     """A still's pitch size and its camera when its camera at ``pitch`` fits
     the frame's markings poorly (line support below
     :data:`arstream.pitch_size.SCAN_BELOW`; :func:`register_frame` with
@@ -789,6 +800,12 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     luma : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
     pitch : PitchModel ``est`` was made at (the grid's centre where on it)
     principal_point : (2,) px
+    workers : most processes the sizes are registered on, one size each
+        (:func:`arstream.workers.map_in_processes`; default 1: here, one
+        after another). The result is the same either way. More than one
+        starts worker processes, which import the caller's main module:
+        a script needs the ``if __name__ == "__main__":`` guard, as with
+        any multiprocessing start method but fork
 
     Returns
     -------
@@ -800,7 +817,8 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     """
     d = (float(pitch.length), float(pitch.width))
     sizes = [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
-    found = [register_frame(detections, size, principal_point=principal_point, pitch=PitchModel(L, W, pitch.line_width), estimate_k1=estimate_k1, image=image, min_support=min_support) for L, W in sizes[1:]]
+    jobs = [(detections, size, principal_point, PitchModel(L, W, pitch.line_width), estimate_k1, image, min_support) for L, W in sizes[1:]]
+    found = map_in_processes(_register_at, jobs, workers=workers, preload=("arstream.initialise",))
     fits = _line_support(est, luma, est.info["pitch"].model(pitch.line_width))
     scan = choose_still_size(sizes, [fits] + [_line_support(e, luma, PitchModel(*sz, pitch.line_width)) for e, sz in zip(found, sizes[1:])])
     if scan.chosen == 0:
@@ -812,7 +830,7 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
 
 
-def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None) -> CameraEstimate:
+def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None, workers: int = 1) -> CameraEstimate:
     """``arstream register`` on one BGR frame: the camera of the frame (frame
     pixels) or a "lost" estimate with the reason.
 
@@ -831,7 +849,8 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     picture as its ``area``, as ``process`` analyses a clip: square pixels
     for the solver, ``pixel_aspect`` mapped back), then
     :func:`register_frame` with the picture; the camera is mapped back to the
-    whole frame.
+    whole frame. ``workers``: the processes a scan of sizes runs on
+    (:func:`size_from_scan`; ``arstream register`` uses every core).
     """
     from arstream.detect import detect
     from arstream.imaging import active_area
@@ -843,7 +862,7 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     # (square pixels for the solver: a frame of other pixels stretched, bicubic)
     frame = cv2.resize(image, an.scaled, interpolation=cv2.INTER_CUBIC) if an.scaling else image
     work = np.ascontiguousarray(frame[y0:y1, x0:x1]) if an.cropped else frame
-    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch, estimate_size=pitch is None)
+    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch, estimate_size=pitch is None, workers=workers)
     if pitch is not None and est.camera is not None:
         est.info["pitch"] = PitchSize(pitch.length, pitch.width, source="given")
     if est.camera is None:

@@ -50,6 +50,7 @@ sys.path.insert(0, str(ROOT))
 
 from arstream.evaluate import frame_error, score  # noqa: E402
 from arstream.pitch_size import corresponding_samples  # noqa: E402
+from arstream.workers import cores  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
 from arstream.presets import REAL_PRESETS  # noqa: E402
 from arstream.sink import read_jsonl  # noqa: E402
@@ -129,10 +130,11 @@ def score_run(clip: Path, cameras: Path, run_pitch: PitchModel) -> dict:
 STILL_SIZES = ("own", "105x68", "unknown")
 
 
-def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, sizes: str = "own") -> list[dict]:
+def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, sizes: str = "own", workers: int = 1) -> list[dict]:
     """Every ``every``-th frame of one clip registered as a still
     (:func:`arstream.initialise.register_image`, with the clip's pixel aspect;
-    ``sizes`` one of :data:`STILL_SIZES`), each scored against the truth
+    ``sizes`` one of :data:`STILL_SIZES`; a scan of sizes on up to
+    ``workers`` processes), each scored against the truth
     marking for marking, on the markings of the size the camera was made at
     (px of the frame shown 1280 wide)."""
     import av
@@ -158,7 +160,7 @@ def still_rows(preset: str, seed: int, frames: int, workdir: Path, every: int, s
             if t is None or t.get("K") is None or not t.get("visible_pitch", True):
                 continue
             t0 = time.perf_counter()
-            est = register_image(frame.to_ndarray(format="bgr24"), pixel_aspect=aspect, pitch=given)
+            est = register_image(frame.to_ndarray(format="bgr24"), pixel_aspect=aspect, pitch=given, workers=workers)
             seconds = time.perf_counter() - t0
             err, made_at = None, None
             if est.camera is not None:
@@ -183,7 +185,7 @@ def stills_main(args) -> int:
         for sizes in args.stills_sizes:
             got = []
             for seed in args.seeds:
-                got += still_rows(preset, seed, args.frames, args.workdir, args.stills, sizes)
+                got += still_rows(preset, seed, args.frames, args.workdir, args.stills, sizes, args.workers or cores())
             rows += got
             n = len(got)
             reg = [r for r in got if r["registered"]]
@@ -213,6 +215,7 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=200)
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/arstream-bench"), help="where the clips are generated (reused)")
     ap.add_argument("--json", type=Path, help="write the rows here")
+    ap.add_argument("--workers", type=int, default=None, metavar="N", help="with --stills: the processes a still's scan of sizes runs on (default every core, as arstream register)")
     ap.add_argument("--stills", type=int, default=0, metavar="N", help="register every N-th frame as a still instead of processing the clips")
     ap.add_argument("--stills-sizes", type=lambda t: t.split(","), default=["own"], metavar="S,...", help=f"with --stills: the pitch sizes, of {', '.join(STILL_SIZES)} (default own)")
     args = ap.parse_args(argv)
@@ -221,6 +224,8 @@ def main(argv=None) -> int:
         ap.error(f"not realistic presets: {', '.join(unknown)} (choose from {', '.join(REAL_PRESETS)})")
     if args.stills < 0:
         ap.error("--stills must be positive")
+    if args.workers is not None and args.workers < 1:
+        ap.error("--workers must be 1 or more")
     if any(v not in STILL_SIZES for v in args.stills_sizes):
         ap.error(f"--stills-sizes: choose from {', '.join(STILL_SIZES)}, got {','.join(args.stills_sizes)}")
     if args.stills:

@@ -323,6 +323,21 @@ def test_register_a_still_and_a_penalty_area_still(tmp_path, capsys):
     assert out.startswith("ok  f=") and "pitch 105.0 x 68.0 m (given)" in out
 
 
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--workers", "0"], "argument --workers: expected a positive int, got '0'"),
+        (["--workers", "two"], "argument --workers: expected a positive int, got 'two'"),
+        (["--pixel-aspect", "0"], "argument --pixel-aspect: expected a positive float, got '0'"),
+    ],
+)
+def test_register_usage_errors(args, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["register", "still.png", *args])
+    assert e.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"error: {message}")
+
+
 def test_lazy_detection_matches_eager():
     # lazy: lines and ellipses computed on first access, from private copies, so
     # resolving after the next frame (or on another thread) gives the same result

@@ -717,6 +717,11 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     assert line_support(given.camera, bright_mask(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)), marking_points()).share < SCAN_BELOW
     unknown = register_image(img, pixel_aspect=float(clip.pixel_aspect))
     made_at = unknown.info["pitch"]
+    # the scan's sizes registered on worker processes (``arstream register``
+    # uses every core): the same camera and size, bit for bit
+    spread = register_image(img, pixel_aspect=float(clip.pixel_aspect), workers=2)
+    assert spread.info["pitch"].to_dict() == made_at.to_dict()
+    assert all(np.array_equal(getattr(spread.camera, k), getattr(unknown.camera, k)) for k in ("K", "R", "t"))
     assert made_at.scan is not None and made_at.scan.size == (105.0, 72.0), made_at.describe()
     assert made_at.source in ("scanned", "estimated") and "chosen by line support on 1 frame" in made_at.describe()
     assert abs(made_at.width - 73.0) < 1.5, made_at.describe()

@@ -19,7 +19,7 @@ def register(subparsers) -> None:
             "frame's paint backs it (line support >= 0.7, docs/evaluate.md). Without --pitch the "
             "pitch's size is an unknown: the camera is made at 105 x 68 m (where the markings fit "
             "that camera poorly, line support below 0.95, the still is registered at "
-            "100/105/110 x 64/68/72 m and the size whose camera they fit clearly better taken: 10-70 s), then "
+            "100/105/110 x 64/68/72 m, on every core, and the size whose camera they fit clearly better taken), then "
             "the size the view constrains (e.g. the width when both touchlines are seen) is "
             "estimated with it and kept when the paint backs it as well. Prints the camera and the size it was made at "
             "(--json: a cameras.jsonl record with a \"pitch\" entry)."
@@ -34,6 +34,7 @@ def register(subparsers) -> None:
         "--pixel-aspect", type=_positive(float), default=1.0, metavar="A",
         help="a pixel's width over its height, for frames resized from another shape (e.g. 1.7778 for 16:9 squeezed to a square); the camera's K then has K[1][1]/K[0][0] = A (default 1)",
     )  # fmt: skip
+    p.add_argument("--workers", type=_positive(int), default=None, metavar="N", help="processes the scan of sizes registers the still on, one size each (default: every core; 1: one after another)")
     p.set_defaults(func=run)
 
 
@@ -43,11 +44,12 @@ def run(args) -> int:
     from arstream.evaluate_video import draw_overlay
     from arstream.framein import read_frame
     from arstream.initialise import register_image
+    from arstream.workers import cores
     from geometry.pitch import PitchModel
 
     image = read_frame(args.input, args.frame)
     # (square pixels for the solver, the picture inside any black bars; mapped back to the frame)
-    est = register_image(image, pixel_aspect=args.pixel_aspect, pitch=PitchModel(*args.pitch) if args.pitch else None)
+    est = register_image(image, pixel_aspect=args.pixel_aspect, pitch=PitchModel(*args.pitch) if args.pitch else None, workers=args.workers or cores())
     made_at = est.info.get("pitch")
     pitch = made_at.model() if made_at is not None else PitchModel(*args.pitch) if args.pitch else PitchModel()
     rec = est.to_record()
