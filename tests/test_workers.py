@@ -49,5 +49,5 @@ def test_terminate_does_not_wait_for_running_jobs():
     assert not multiprocessing.active_children()
 
 
-def test_cores_is_positive():
-    assert cores() >= 1
+def test_cores_are_those_this_process_may_run_on():
+    assert cores() == len(os.sched_getaffinity(0)) >= 1
