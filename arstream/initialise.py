@@ -28,8 +28,8 @@ from arstream.estimate import CameraEstimate
 from arstream.pitch_size import SCAN_BELOW, SCAN_LENGTHS, SCAN_WIDTHS, PitchSize, choose_still_size, estimate_view_size
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
-from arstream.workers import map_in_processes
 from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, bright_mask, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
+from arstream.workers import map_in_processes
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
