@@ -116,7 +116,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 from arstream.errors import ArstreamError, InputError
-from arstream.workers import children_ignore_sigint, cores, terminate, worker_context
+from arstream.workers import children_ignore_sigint, cores, init_worker, terminate, worker_context
 
 __all__ = [
     "run",
@@ -457,12 +457,9 @@ _PROGRESS_SINK = None  # set in local workers by _init_local_worker: a multiproc
 
 
 def _init_local_worker(progress_queue, cv_threads: int) -> None:
-    """Initializer of the local pool's workers: the driver alone handles Ctrl-C; OpenCV
-    shares the cores with the other workers (``cv_threads`` each)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import cv2
-
-    cv2.setNumThreads(cv_threads)
+    """Initializer of the local pool's workers: as any pool's
+    (:func:`arstream.workers.init_worker`), and the progress queue kept."""
+    init_worker(cv_threads)
     global _PROGRESS_SINK
     if progress_queue is not None:
         progress_queue.cancel_join_thread()  # progress is best effort: never wait for it at exit

@@ -19,7 +19,7 @@ import signal
 import threading
 from typing import Callable, Sequence
 
-__all__ = ["cores", "children_ignore_sigint", "worker_context", "terminate", "map_in_processes"]
+__all__ = ["cores", "children_ignore_sigint", "worker_context", "terminate", "init_worker", "map_in_processes"]
 
 
 def cores() -> int:
@@ -75,9 +75,10 @@ def terminate(pool: cf.ProcessPoolExecutor) -> None:
                 p.join(5.0)
 
 
-def _init_worker(cv_threads: int) -> None:
-    """Initializer of :func:`map_in_processes`'s workers: the caller alone
-    handles Ctrl-C; OpenCV shares the cores with the other workers."""
+def init_worker(cv_threads: int) -> None:
+    """Initializer of a pool's workers (:func:`map_in_processes`'s, the
+    batch's): the caller alone handles Ctrl-C; OpenCV shares the cores with
+    the other workers (``cv_threads`` each)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     import cv2
 
@@ -107,7 +108,7 @@ def map_in_processes(fn: Callable, jobs: Sequence, *, workers: int | None = None
     if n <= 1 or multiprocessing.current_process().daemon:
         return [fn(job) for job in jobs]
     ctx = worker_context(preload)
-    pool = cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=_init_worker, initargs=(max(1, cores() // n),))
+    pool = cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=init_worker, initargs=(max(1, cores() // n),))
     try:
         # (Ctrl-C is not held off while submit() starts the workers, which
         # can take seconds while the fork server imports ``preload``: it
