@@ -58,7 +58,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED", "STILL_OFF_SHARE"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED", "STILL_GAIN_RATIO"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -121,14 +121,16 @@ SCAN_MIN_FRAMES = 25
 #: a fifth of its markings off the paint fits the frame no better
 STILL_SUPPORTED = 0.8
 #: a size is higher than another on a still (:func:`choose_still_size`)
-#: only where its camera leaves at most this share of the other's markings
-#: off the paint (besides :data:`SCAN_MARGIN`): a wrong size leaves a far
-#: marking off its paint and the right one puts it on (the realistic
-#: synthetic stills' wrong cameras: 15-27 % off, the right size's 1-7 %),
-#: while on a frame whose view does not tell the sizes apart they share its
-#: misses (israel_league_wide frame 100 blurred 1.2 px, a long lens on the
-#: circle: 7-15 % off at every size, 105 x 68 the right one at 12 %)
-STILL_OFF_SHARE = 0.5
+#: where, of the points of the markings in view of either size's camera that
+#: the two lay on different places (:func:`arstream.support.paint_dispute`),
+#: its camera lays at least this many times as many on paint as the other's,
+#: and more by :data:`SCAN_MARGIN` of the points in view. The two cameras'
+#: line supports are shares of different points: a wrong size can leave a
+#: far marking out of the image, or share a blurred frame's misses, and score
+#: higher (the realistic synthetic stills' scans: a camera 24 px off at 0.98
+#: against the default's 0.93, which lays 57 of the disputed points on paint
+#: to its 4; bench/README.md "Stop 55")
+STILL_GAIN_RATIO = 2.0
 
 
 @dataclass(frozen=True)
@@ -430,22 +432,23 @@ def choose_size(sizes, supports) -> SizeScan:
     return SizeScan(sizes, med, cov, frames, chosen, tuple(list(x) for x in supports))
 
 
-def choose_still_size(sizes, supports) -> SizeScan:
+def choose_still_size(sizes, supports, dispute) -> SizeScan:
     """The size whose camera a still's paint backs best (one frame registered
     at each size; :func:`choose_size` is the clip's rule).
 
-    One frame has no medians or blocks to compare: a size is *higher* than
-    another when its camera's line support is higher by
-    :data:`SCAN_MARGIN` and it leaves at most :data:`STILL_OFF_SHARE` of the
-    other's share of markings off the paint. A size may replace the default when its camera
-    fits the frame (line support at least :data:`STILL_SUPPORTED`) and is
-    higher than the default's (a default without a camera is kept: no
-    baseline). Of those sizes, the nearest
-    to it on the grid (fewest dimensions changed; of those, the highest
-    support) is taken, and a farther one replaces it only when it is higher
-    than that one too: sizes whose supports tie within the margin are ones
-    the view does not tell apart (a penalty view's 100, 105 and 110 m), and
-    the nearest to the default is the likelier.
+    One frame has no medians or blocks to compare. Its sizes' cameras are
+    compared point for point instead, on the same samples of the same
+    markings (``dispute``): a size is *higher* than another when its camera
+    lays at least :data:`STILL_GAIN_RATIO` times as many of the points the
+    two dispute on paint as the other's does, and more of them by
+    :data:`SCAN_MARGIN` of the points in view of either. A size may replace
+    the default when its camera fits the frame (line support at least
+    :data:`STILL_SUPPORTED`) and is higher than the default's (a default
+    without a camera is kept: no baseline). Of those sizes, the nearest to it
+    on the grid (fewest dimensions changed; of those, the highest support) is
+    taken, and a farther one replaces it only when it is higher than that one
+    too: sizes the view does not tell apart (a penalty view's 100, 105 and
+    110 m) dispute few points, and the nearest to the default is the likelier.
 
     Parameters
     ----------
@@ -453,11 +456,21 @@ def choose_still_size(sizes, supports) -> SizeScan:
     supports : the still's line support at each size (docs/evaluate.md; None:
         no camera there); the default's is its camera's after the size
         estimated from it (:func:`arstream.initialise.size_from_scan`)
+    dispute : callable ``(j, k) -> PaintDispute``, the cameras of sizes ``j``
+        and ``k`` on the frame's paint (:func:`arstream.support.paint_dispute`);
+        called only for sizes with a camera
 
     Returns
     -------
     SizeScan with ``frames`` 1 (``median`` the supports, ``coverage`` 1 or 0
     a size).
+
+    >>> from arstream.support import PaintDispute
+    >>> grid = [(105.0, 68.0), (105.0, 72.0)]
+    >>> choose_still_size(grid, [0.93, 0.96], lambda j, k: PaintDispute(10, 40, 60, 500)).chosen  # the other lays 40 of the disputed points on paint, the default 10
+    1
+    >>> choose_still_size(grid, [0.93, 0.98], lambda j, k: PaintDispute(57, 4, 70, 900)).chosen  # higher support, but the default lays 57 of the disputed points to its 4
+    0
     """
     sizes = tuple((float(L), float(W)) for L, W in sizes)
     if len(supports) != len(sizes) or not sizes:
@@ -466,8 +479,11 @@ def choose_still_size(sizes, supports) -> SizeScan:
     d = sizes[0]
 
     def higher(j: int, k: int) -> bool:
-        # (by the margin, and explaining at least half of the markings j leaves off the paint)
-        return s[j] is not None and s[k] is not None and s[k] >= s[j] + SCAN_MARGIN and 1.0 - s[k] <= STILL_OFF_SHARE * (1.0 - s[j])
+        # (k lays at least twice as many of the disputed points on paint as j, and more by the margin)
+        if s[j] is None or s[k] is None:
+            return False
+        p = dispute(j, k)
+        return p.second >= STILL_GAIN_RATIO * p.first and p.second - p.first >= SCAN_MARGIN * p.in_view
 
     def up(k: int) -> bool:
         # (the scan's camera must itself fit the frame; a default without a

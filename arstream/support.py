@@ -85,6 +85,8 @@ __all__ = [
     "backs",
     "pixel_support",
     "line_support",
+    "PaintDispute",
+    "paint_dispute",
     "ON_GRASS",
     "GRASS_REACH",
     "grass_region",
@@ -304,18 +306,29 @@ def marking_spread(camera: Camera, mask: np.ndarray, pitch: PitchModel | None = 
     return seen, backed
 
 
+def _lookup(pixels: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Projected points (N, 2) on ``mask`` (H, W) bool: (inside, on), (N,)
+    bool each: the point's nearest pixel lies inside the image, and it is on
+    ``mask`` (False where outside). Non-finite rows (behind the camera) are
+    neither."""
+    H, W = mask.shape
+    with np.errstate(invalid="ignore"):
+        ix = np.floor(pixels + 0.5)  # nearest pixel (NaN stays NaN and fails the test below)
+        inside = (ix[:, 0] >= 0) & (ix[:, 0] < W) & (ix[:, 1] >= 0) & (ix[:, 1] < H)
+    on = np.zeros(len(pixels), bool)
+    ij = ix[inside].astype(np.intp)
+    on[inside] = mask[ij[:, 1], ij[:, 0]]
+    return inside, on
+
+
 def _on_mask(pixels: np.ndarray, ids: np.ndarray, mask: np.ndarray, min_points: int, min_share: float) -> tuple[Support, int, int]:
     """From projected marking points (N, 2) and their markings (N,): the
     counts on ``mask`` as a :class:`Support` (``share`` left to the caller),
     the markings with at least ``min_points`` points inside, and of those the
     ones with ``min_share`` of them on ``mask``."""
-    H, W = mask.shape
-    with np.errstate(invalid="ignore"):
-        ix = np.floor(pixels + 0.5)
-        inside = (ix[:, 0] >= 0) & (ix[:, 0] < W) & (ix[:, 1] >= 0) & (ix[:, 1] < H)
+    inside, on = _lookup(pixels, mask)
     k = ids[inside]
-    ij = ix[inside].astype(np.intp)
-    hit = mask[ij[:, 1], ij[:, 0]]
+    hit = on[inside]
     n = np.bincount(k, minlength=ids[-1] + 1)
     h = np.bincount(k, weights=hit, minlength=ids[-1] + 1)
     seen = n >= min_points
@@ -376,13 +389,9 @@ def pixel_support(pixels: np.ndarray, mask: np.ndarray, *, min_points: int = MIN
         raise ValueError(f"pixels must have shape (N, 2), got {pixels.shape}")
     if mask.ndim != 2:
         raise ValueError(f"mask must be (H, W), got shape {mask.shape}")
-    H, W = mask.shape
-    with np.errstate(invalid="ignore"):
-        ix = np.floor(pixels + 0.5)  # nearest pixel (NaN stays NaN and fails the test below)
-        inside = (ix[:, 0] >= 0) & (ix[:, 0] < W) & (ix[:, 1] >= 0) & (ix[:, 1] < H)
-    ix = ix[inside].astype(np.intp)
-    n = len(ix)
-    hit = int(np.count_nonzero(mask[ix[:, 1], ix[:, 0]]))
+    inside, on = _lookup(pixels, mask)
+    n = int(np.count_nonzero(inside))
+    hit = int(np.count_nonzero(on))
     share = hit / n if n >= max(min_points, 1) else None
     return Support(share=share, n_inside=n, n_supported=hit)
 
@@ -404,6 +413,63 @@ def line_support(camera: Camera, mask: np.ndarray, points: np.ndarray | None = N
     if points is None:
         points = marking_points()
     return pixel_support(camera.project(points), mask, min_points=min_points)
+
+
+@dataclass(frozen=True)
+class PaintDispute:
+    """Two cameras' markings on one frame's paint, point for point
+    (:func:`paint_dispute`).
+
+    Attributes
+    ----------
+    first, second : int, disputed points only the first (second) camera lays on paint
+    disputed : int, points in view of either camera that the two do not lay
+        on the same place (more than ``REACH`` px apart, or one of them out of
+        the image)
+    in_view : int, points in view of either camera
+    """
+
+    first: int
+    second: int
+    disputed: int
+    in_view: int
+
+
+def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, second_points: np.ndarray, mask: np.ndarray) -> PaintDispute:
+    """Which of two cameras lays more of the same markings on a frame's paint.
+
+    The line support is a share of the points each camera has in view, so
+    two cameras' supports are shares of different points: a camera that
+    leaves a hard marking (a far touchline on the boards' edge) out of the
+    image, or shares another's misses (a blurred frame's faint paint), scores
+    as if it explained more. Compared point for point, the markings both
+    cameras lay on the same place (within ``REACH`` px: the same 5 x 5
+    neighbourhood of the mask) say nothing about which is right; of the
+    others, the *disputed* points, each counts for the camera that lays it
+    on paint where the other does not.
+
+    Parameters
+    ----------
+    first, second : Camera (pitch frame), distortion included
+    first_points, second_points : (N, 3) pitch frame (metres), the same
+        samples of the same markings on each camera's pitch (its size:
+        :func:`arstream.pitch_size.corresponding_samples`), in one order
+    mask : (H, W) bool, :func:`bright_mask` of the frame's luma
+
+    Returns
+    -------
+    PaintDispute
+    """
+    if len(first_points) != len(second_points):
+        raise ValueError(f"the same samples on both pitches: {len(first_points)} and {len(second_points)} points")
+    pa, pb = first.project(np.asarray(first_points, np.float64)), second.project(np.asarray(second_points, np.float64))
+    ina, ona = _lookup(pa, mask)
+    inb, onb = _lookup(pb, mask)
+    either = ina | inb
+    with np.errstate(invalid="ignore"):
+        same = ina & inb & (np.max(np.abs(pa - pb), axis=1) <= REACH)
+    disputed = either & ~same
+    return PaintDispute(int(np.count_nonzero(disputed & ona & ~onb)), int(np.count_nonzero(disputed & onb & ~ona)), int(np.count_nonzero(disputed)), int(np.count_nonzero(either)))
 
 
 def grass_region(grass: np.ndarray, reach: float = GRASS_REACH) -> np.ndarray:

@@ -180,6 +180,53 @@ def test_support_undefined_when_markings_are_out_of_view(sample_frames):
     assert s100.defined and s100.n_inside != line_support(cam, m).n_inside
 
 
+# --- two cameras' markings on the paint, point for point ---------------------------
+def test_paint_dispute_of_the_true_camera_and_a_moved_one(sample_frames):
+    from arstream.support import PaintDispute, paint_dispute
+
+    for cam, m, _ in sample_frames:
+        X = marking_points()
+        wrong = _shifted(cam, (1.0, 1.0, 0.0))
+        d = paint_dispute(cam, X, wrong, X, m)
+        # the true camera lays most of the disputed points on paint, the moved one few
+        assert d.first >= 5 * max(d.second, 1) and d.first + d.second <= d.disputed <= d.in_view, d
+        assert paint_dispute(wrong, X, cam, X, m) == PaintDispute(d.second, d.first, d.disputed, d.in_view)
+        same = paint_dispute(cam, X, cam, X, m)
+        assert same.first == same.second == same.disputed == 0 and same.in_view == line_support(cam, m).n_inside
+
+
+def test_paint_dispute_counts_markings_out_of_one_view():
+    # a 105 x 72 m pitch painted as the main camera sees it; the same camera
+    # given a 105 x 68 pitch lays the far touchline 4 m short, inside the
+    # picture, off the paint: the disputed points are the far half's, and
+    # all but a few (where the lines cross) are the 72 m pitch's
+    from arstream.pitch_size import corresponding_samples
+    from arstream.solve import ModelSamples
+    from arstream.support import paint_dispute
+    from cameras import looking_at
+
+    size = (1280, 720)
+    cam = looking_at((0.0, -60.0, 20.0), (0.0, 0.0, 0.0), 1400.0, size)
+    true, wrong = PitchModel(105.0, 72.0), PitchModel(105.0, 68.0)
+    mask = bright_mask(_painted(cam, size, pitch=true)[..., 1])
+    a, b = (np.column_stack([p, np.zeros(len(p))]) for p in corresponding_samples(true, wrong))
+    d = paint_dispute(cam, a, cam, b, mask)
+    assert d.first >= 20 * max(d.second, 1) and d.disputed >= 0.3 * d.in_view, d
+    # the centre circle is the same on both pitches, in view at the same place: not disputed
+    samples = ModelSamples.from_pitch(true, 0.25)
+    circle = samples.marking == samples.names.index("centre_circle")
+    on_circle = paint_dispute(cam, a[circle], cam, b[circle], mask)
+    assert on_circle.disputed == 0 and on_circle.in_view == circle.sum() > 100, on_circle
+
+
+def test_paint_dispute_wants_the_same_samples():
+    from arstream.support import paint_dispute
+
+    cam = _cam()
+    with pytest.raises(ValueError, match="the same samples on both pitches: 3 and 2 points"):
+        paint_dispute(cam, np.zeros((3, 3)), cam, np.zeros((2, 3)), np.zeros((720, 1280), bool))
+
+
 # --- jitter proxy ------------------------------------------------------------------
 SIZE = (1280, 720)
 CENTRE = np.array([-2.0, -60.0, 20.0])
