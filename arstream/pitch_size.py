@@ -39,9 +39,11 @@ a wrong size leaves every view's far markings off their paint.
 
 A still has one view: :func:`estimate_view_size` refines the size it
 constrains from its camera at 105 x 68. Where that camera fits the
-markings poorly (line support below :data:`SCAN_BELOW`), the still is registered at the grid's sizes and :func:`choose_still_size`
-takes one by the support of each size's camera
-(:func:`arstream.initialise.size_from_scan`).
+markings poorly (line support below :data:`SCAN_BELOW`), the still is
+registered at the grid's sizes and :func:`choose_still_size` takes one by
+comparing the sizes' cameras point for point: which lays more of the same
+markings on the frame's paint (:func:`arstream.support.paint_dispute`;
+:func:`arstream.initialise.size_from_scan`).
 
 Frames: pitch frame as in ``geometry.pitch`` (metres, origin at the centre
 spot); pixels of the views' frames.

@@ -95,28 +95,26 @@ def _real_stills(prefixes=None) -> list[tuple]:
 
 def _frame(job):
     """(BGR frame, pixel aspect, scorer(camera, (L, W)) -> px @1280 or None)."""
-    from arstream.evaluate import distance_1280, frame_error
+    from arstream.evaluate import distance_1280
     from arstream.pitch_size import corresponding_samples
     from arstream.sink import read_jsonl
-    from geometry.camera import Camera
     from geometry.pitch import PitchModel
 
     if job[0] == "synthetic":
         import av
+        from real_synth import _error_1280
 
         clip, k = Path(job[1]), job[2]
         header = json.loads((clip / "header.json").read_text())
         tp = PitchModel(header["pitch"]["length"], header["pitch"]["width"])
         aspect = header.get("pixel_aspect", [1, 1])
         size = tuple(header["size"])
-        truth = Camera.from_dict(next(t for t in read_jsonl(clip / "truth.jsonl") if int(t["frame"]) == k))
+        truth = next(t for t in read_jsonl(clip / "truth.jsonl") if int(t["frame"]) == k)
         with av.open(str(clip / "clip.mp4")) as c:
             image = next(f for i, f in enumerate(c.decode(video=0)) if i == k).to_ndarray(format="bgr24")
 
         def score(cam, made):
-            pts, moved = corresponding_samples(tp, PitchModel(*made))
-            fe = frame_error(truth, cam, size, pts, tp.symmetries, moved)
-            return None if fe is None else fe.mean * 1280.0 / size[0]
+            return _error_1280(truth, cam, size, tp, *corresponding_samples(tp, PitchModel(*made)))
 
         return image, aspect[0] / aspect[1], score
     import real_graphics as rg
