@@ -25,10 +25,10 @@ import numpy as np
 
 from arstream.detect.paint import PAINT_CONTRAST, paint_arcs, paint_lines, paint_mask
 from arstream.estimate import CameraEstimate
-from arstream.pitch_size import SCAN_BELOW, SCAN_LENGTHS, SCAN_WIDTHS, PitchSize, choose_still_size, corresponding_samples, estimate_view_size
+from arstream.pitch_size import SCAN_BELOW, PitchSize, choose_still_size, estimate_view_size, size_dispute, still_scan_sizes
 from arstream.solve import LineIndex, ModelSamples, Refinement, cameras_along_circle, explained_share, k1_observable, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses, cameras_from_line_pairs, plausible, same_camera
-from arstream.support import ON_GRASS, ON_LINES, SPACING, along_support, backed_support, backs, bright_mask, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, paint_dispute, white_mask
+from arstream.support import ON_GRASS, ON_LINES, along_support, backed_support, backs, bright_mask, grass_region, line_support, marking_points, marking_spread, on_grass, on_lines, white_mask
 from arstream.workers import map_in_processes
 from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
@@ -815,17 +815,11 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     "scanned" where the chosen grid size is kept as it is. Where the
     default is kept, ``est`` and its size.
     """
-    d = (float(pitch.length), float(pitch.width))
-    sizes = [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
+    sizes = still_scan_sizes(pitch)
     jobs = [(detections, size, principal_point, PitchModel(L, W, pitch.line_width), estimate_k1, image, min_support) for L, W in sizes[1:]]
     found = map_in_processes(_register_at, jobs, workers=workers, preload=("arstream.initialise",))
     models = [est.info["pitch"].model(pitch.line_width)] + [PitchModel(*sz, pitch.line_width) for sz in sizes[1:]]
-    cameras = [est.camera] + [e.camera for e in found]
-
-    def dispute(j: int, k: int):
-        pj, pk = corresponding_samples(models[j], models[k], SPACING)
-        return paint_dispute(cameras[j], np.column_stack([pj, np.zeros(len(pj))]), cameras[k], np.column_stack([pk, np.zeros(len(pk))]), luma)
-
+    dispute = size_dispute([e.camera for e in (est, *found)], models, luma)
     scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip([est, *found], models)], dispute)
     if scan.chosen == 0:
         return est, replace(est.info["pitch"], scan=scan)

@@ -56,11 +56,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from arstream.solve import LineIndex, ModelSamples
+from arstream.support import SPACING, paint_dispute
 from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "STILL_SUPPORTED", "STILL_GAIN_RATIO"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -498,6 +499,42 @@ def choose_still_size(sizes, supports, dispute) -> SizeScan:
         if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
     return SizeScan(sizes, s, tuple(float(v is not None) for v in s), 1, chosen, tuple([v] for v in s))
+
+
+def still_scan_sizes(pitch: PitchModel) -> list[tuple[float, float]]:
+    """The sizes a still's scan registers it at (:func:`arstream.initialise.size_from_scan`):
+    ``pitch``'s (the default) first, then the grid's others
+    (:data:`SCAN_LENGTHS` x :data:`SCAN_WIDTHS`), lengths first.
+
+    >>> still_scan_sizes(PitchModel())[:3]
+    [(105.0, 68.0), (100.0, 64.0), (100.0, 68.0)]
+    """
+    d = (float(pitch.length), float(pitch.width))
+    return [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
+
+
+def size_dispute(cameras, pitches, mask: np.ndarray):
+    """The ``dispute`` of :func:`choose_still_size` for one still: camera
+    ``j`` at pitch ``j`` against camera ``k`` at pitch ``k`` on the frame's
+    paint, on the same samples of the same markings
+    (:func:`corresponding_samples`, :func:`arstream.support.paint_dispute`).
+
+    Parameters
+    ----------
+    cameras : sequence of Camera (None where a size gave none), one per size
+    pitches : sequence of PitchModel, the size each camera was made at
+    mask : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
+
+    Returns
+    -------
+    callable ``(j, k) -> PaintDispute``
+    """
+
+    def dispute(j: int, k: int):
+        pj, pk = corresponding_samples(pitches[j], pitches[k], SPACING)
+        return paint_dispute(cameras[j], np.column_stack([pj, np.zeros(len(pj))]), cameras[k], np.column_stack([pk, np.zeros(len(pk))]), mask)
+
+    return dispute
 
 
 def with_size(scan: SizeScan, size, supports) -> SizeScan:

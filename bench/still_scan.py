@@ -134,6 +134,7 @@ def record(job) -> dict:
     import arstream.initialise as ini
     from arstream.imaging import active_area
     from arstream.pipeline.stages import Analysis
+    from arstream.pitch_size import still_scan_sizes
     from geometry.pitch import PitchModel
 
     cv2.setNumThreads(1)
@@ -165,10 +166,11 @@ def record(job) -> dict:
         return out
     p, est = seen["pitch"], seen["est"]
     made0 = (est.info["pitch"].length, est.info["pitch"].width)
+    grid = still_scan_sizes(p)
     rows = []
     for j, e in enumerate([est, *seen["found"]]):
-        made = made0 if j == 0 else _grid(p)[j]
-        row = {"size": _grid(p)[j], "made": made, "camera": None if e.camera is None else e.camera.to_dict(), "support": ini._line_support(e, seen["luma"], PitchModel(*made, p.line_width))}
+        made = made0 if j == 0 else grid[j]
+        row = {"size": grid[j], "made": made, "camera": None if e.camera is None else e.camera.to_dict(), "support": ini._line_support(e, seen["luma"], PitchModel(*made, p.line_width))}
         row["error"] = None if e.camera is None else score(an.camera(e.camera), made)
         if j > 0 and e.camera is not None:
             cam, size_got, _ = ini.size_from_view(e.camera, e.info.get("support"), seen["view"], seen["size"], PitchModel(*made, p.line_width), seen["kw"].get("min_support", 0.7))
@@ -180,13 +182,6 @@ def record(job) -> dict:
     return out
 
 
-def _grid(pitch) -> list[tuple[float, float]]:
-    from arstream.pitch_size import SCAN_LENGTHS, SCAN_WIDTHS
-
-    d = (float(pitch.length), float(pitch.width))
-    return [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
-
-
 def _safe(job) -> dict:
     try:
         return record(job)
@@ -196,21 +191,14 @@ def _safe(job) -> dict:
 
 def replay(rec: dict) -> int:
     """The size the code at hand chooses on a recorded scan (index into its rows)."""
-    from arstream.pitch_size import choose_still_size, corresponding_samples
-    from arstream.support import SPACING, paint_dispute
+    from arstream.pitch_size import choose_still_size, size_dispute
     from geometry.camera import Camera
     from geometry.pitch import PitchModel
 
     rows = rec["rows"]
     H, W = rec["luma_shape"]
     mask = np.unpackbits(rec["luma"])[: H * W].reshape(H, W).astype(bool)
-    models = [PitchModel(*r["made"], rec["line_width"]) for r in rows]
-    cams = [None if r["camera"] is None else Camera.from_dict(r["camera"]) for r in rows]
-
-    def dispute(j, k):
-        pj, pk = corresponding_samples(models[j], models[k], SPACING)
-        return paint_dispute(cams[j], np.column_stack([pj, np.zeros(len(pj))]), cams[k], np.column_stack([pk, np.zeros(len(pk))]), mask)
-
+    dispute = size_dispute([None if r["camera"] is None else Camera.from_dict(r["camera"]) for r in rows], [PitchModel(*r["made"], rec["line_width"]) for r in rows], mask)
     return choose_still_size([tuple(r["size"]) for r in rows], [r["support"] for r in rows], dispute).chosen
 
 
