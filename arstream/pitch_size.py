@@ -247,6 +247,8 @@ class SizeScan:
     chosen : index into ``sizes`` of the size kept
     supports : per size, the line support of each frame (None: no camera),
         what the choice was made on (:func:`with_size` adds a size to it)
+    point_for_point : the sizes' cameras were compared point for point on
+        the paint (a still: :func:`choose_still_size`), not by their supports
     """
 
     sizes: tuple
@@ -255,16 +257,21 @@ class SizeScan:
     frames: int
     chosen: int
     supports: tuple = field(default=(), repr=False, compare=False)
+    point_for_point: bool = False
 
     @property
     def size(self) -> tuple[float, float]:
         return self.sizes[self.chosen]
 
     def describe(self) -> str:
-        """e.g. ``chosen by line support on 176 frames: 100 x 68 0.99, 105 x 68 0.82, 110 x 68 0.93``."""
+        """e.g. ``chosen by line support on 176 frames: 100 x 68 0.99, 105 x 68 0.82, 110 x 68 0.93``,
+        or a still's ``kept by the paint point for point on 1 frame (line support 100 x 68 0.90, ...)``."""
         parts = ", ".join(f"{_metres(L)} x {_metres(W)} {'-' if m is None else f'{m:.2f}'}" for (L, W), m in sorted(zip(self.sizes, self.median)))
         verb = "kept" if self.chosen == 0 else "chosen"
-        return f"{verb} by line support on {self.frames} frame{'s' if self.frames != 1 else ''}: {parts}"
+        frames = f"{self.frames} frame{'s' if self.frames != 1 else ''}"
+        if self.point_for_point:
+            return f"{verb} by the paint point for point on {frames} (line support {parts})"
+        return f"{verb} by line support on {frames}: {parts}"
 
     def to_dict(self) -> dict:
         r = lambda v: None if v is None else round(float(v), 3)  # noqa: E731
@@ -498,7 +505,7 @@ def choose_still_size(sizes, supports, dispute) -> SizeScan:
     for k in sorted((k for k in range(1, len(sizes)) if up(k)), key=lambda k: (changed(k), -s[k])):
         if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
-    return SizeScan(sizes, s, tuple(float(v is not None) for v in s), 1, chosen, tuple([v] for v in s))
+    return SizeScan(sizes, s, tuple(float(v is not None) for v in s), 1, chosen, tuple([v] for v in s), point_for_point=True)
 
 
 def still_scan_sizes(pitch: PitchModel) -> list[tuple[float, float]]:

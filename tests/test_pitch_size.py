@@ -221,7 +221,7 @@ def test_choose_still_size_rule(supports, disputes, chosen):
     got = choose_still_size(_STILL_GRID, supports, dispute)
     assert got.size == chosen and got.frames == 1
     assert got.coverage == tuple(float(s is not None and np.isfinite(s)) for s in supports)
-    assert ("kept" if chosen == (105, 68) else "chosen") + " by line support on 1 frame: " in got.describe()
+    assert ("kept" if chosen == (105, 68) else "chosen") + " by the paint point for point on 1 frame (line support " in got.describe()
 
 
 def test_choose_still_size_refuses_mismatched_supports():
@@ -735,7 +735,7 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     assert spread.info["pitch"].to_dict() == made_at.to_dict()
     assert all(np.array_equal(getattr(spread.camera, k), getattr(unknown.camera, k)) for k in ("K", "R", "t"))
     assert made_at.scan is not None and made_at.scan.size == (105.0, 72.0), made_at.describe()
-    assert made_at.source in ("scanned", "estimated") and "chosen by line support on 1 frame" in made_at.describe()
+    assert made_at.source in ("scanned", "estimated") and "chosen by the paint point for point on 1 frame" in made_at.describe()
     assert abs(made_at.width - 73.0) < 1.5, made_at.describe()
     assert error_1280(unknown) < 3.0 and error_1280(given) > 20.0, (error_1280(unknown), error_1280(given))
     # (register --json's "pitch" entry carries the scan: docs/formats.md)
