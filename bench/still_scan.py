@@ -216,19 +216,19 @@ def report(records: list[dict]) -> None:
         if not recs:
             continue
         scanned = [r for r in recs if r["scanned"]]
-        now = [r["rows"][replay(r)]["drawn_error"] for r in scanned]
+        chosen = [replay(r) for r in scanned]
+        now = [r["rows"][k]["drawn_error"] for r, k in zip(scanned, chosen)]
         print(f"\n{kind}: {len(recs)} stills, {len(scanned)} scanned")
         print("| stills | within 5 px / 5-20 px / beyond 20 px / lost |")
         print("|---|---|")
         print(f"| all, as registered | {_bins([r.get('error') for r in recs])} |")
         print(f"| scanned, as registered | {_bins([r.get('error') for r in scanned])} |")
         print(f"| scanned, the code at hand's rule on the same scans | {_bins(now)} |")
-        moved = [(r, e) for r, e in zip(scanned, now) if r.get("error") is None or e is None or abs(e - r["error"]) > 0.05]
+        moved = [(r, k, e) for r, k, e in zip(scanned, chosen, now) if r.get("error") is None or e is None or abs(e - r["error"]) > 0.05]
         if moved:
             print("\n| still | as registered: px, size | now: px, size |")
             print("|---|---|---|")
-            for r, e in moved:
-                k = replay(r)
+            for r, k, e in moved:
                 print(f"| {' '.join(str(x) for x in r['job'][1:]).replace(str(WORKDIR) + '/', '')} | {r.get('error', float('nan')):.1f}, {tuple(r['pitch']['scan']['sizes'][r['pitch']['scan']['chosen']])} | {e:.1f}, {tuple(r['rows'][k]['size'])} |")
 
 
