@@ -818,9 +818,9 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     sizes = still_scan_sizes(pitch)
     jobs = [(detections, size, principal_point, PitchModel(L, W, pitch.line_width), estimate_k1, image, min_support) for L, W in sizes[1:]]
     found = map_in_processes(_register_at, jobs, workers=workers, preload=("arstream.initialise",))
+    ests = [est, *found]
     models = [est.info["pitch"].model(pitch.line_width)] + [PitchModel(*sz, pitch.line_width) for sz in sizes[1:]]
-    dispute = size_dispute([e.camera for e in (est, *found)], models, luma)
-    scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip([est, *found], models)], dispute)
+    scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip(ests, models)], size_dispute([e.camera for e in ests], models, luma))
     if scan.chosen == 0:
         return est, replace(est.info["pitch"], scan=scan)
     best = found[scan.chosen - 1]
