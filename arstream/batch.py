@@ -116,7 +116,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 from arstream.errors import ArstreamError, InputError
-from arstream.workers import children_ignore_sigint, cores, init_worker, terminate, worker_context
+from arstream.workers import cores, init_worker, spawning, terminate, worker_context
 
 __all__ = [
     "run",
@@ -749,7 +749,7 @@ class _LocalEngine:
         return self.workers
 
     def submit(self, job: dict):
-        with children_ignore_sigint():  # submit() spawns the workers
+        with spawning(self.ctx):  # submit() may start the workers
             fut = self.pool.submit(process_clip, job)
         self.owner[fut] = self.pool
         return fut

@@ -14,12 +14,13 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import multiprocessing
+import multiprocessing.forkserver
 import os
 import signal
 import threading
 from typing import Callable, Sequence
 
-__all__ = ["cores", "children_ignore_sigint", "worker_context", "terminate", "init_worker", "map_in_processes"]
+__all__ = ["cores", "children_ignore_sigint", "worker_context", "spawning", "terminate", "init_worker", "map_in_processes"]
 
 
 def cores() -> int:
@@ -51,12 +52,35 @@ def worker_context(preload: Sequence[str]):
     """``forkserver`` where there is one (its server imports ``preload``, module
     names, once; a worker then starts in milliseconds instead of re-importing
     for a second), else ``spawn``. The server is one per process: the
-    ``preload`` of the first context that starts it stands."""
+    ``preload`` of the first context that starts it stands.
+
+    The server is started here, with SIGINT ignored (it returns at once; the
+    server imports ``preload`` on its own): its workers are forked with the
+    server's signal dispositions, so they ignore Ctrl-C from their first
+    instruction, and the caller need not hold Ctrl-C off while a pool's
+    ``submit()`` waits seconds for those imports (:func:`spawning`)."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(list(preload))
+        with children_ignore_sigint():
+            multiprocessing.forkserver.ensure_running()
         return ctx
     return multiprocessing.get_context("spawn")
+
+
+@contextlib.contextmanager
+def spawning(ctx):
+    """Around a pool's ``submit()``, which may start workers from ``ctx``
+    (:func:`worker_context`): SIGINT ignored while ``spawn`` starts them (they
+    inherit it from their first instruction; starting one takes milliseconds,
+    its imports are its own); nothing for a fork server's context, whose
+    workers take the server's dispositions, so a Ctrl-C while ``submit()``
+    waits for the server's imports reaches the caller."""
+    if ctx.get_start_method() == "forkserver":
+        yield
+        return
+    with children_ignore_sigint():
+        yield
 
 
 def terminate(pool: cf.ProcessPoolExecutor) -> None:
@@ -110,10 +134,11 @@ def map_in_processes(fn: Callable, jobs: Sequence, *, workers: int | None = None
     ctx = worker_context(preload)
     pool = cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=init_worker, initargs=(max(1, cores() // n),))
     try:
-        # (Ctrl-C is not held off while submit() starts the workers, which
-        # can take seconds while the fork server imports ``preload``: it
-        # stops them all, as a worker's own KeyboardInterrupt would)
-        futures = [pool.submit(fn, job) for job in jobs]
+        # (the workers ignore Ctrl-C from their first instruction; the
+        # caller's KeyboardInterrupt, also while submit() waits for the fork
+        # server's imports, stops them all)
+        with spawning(ctx):
+            futures = [pool.submit(fn, job) for job in jobs]
         out = [f.result() for f in futures]
     except BaseException:
         terminate(pool)

@@ -51,3 +51,42 @@ def test_terminate_does_not_wait_for_running_jobs():
 
 def test_cores_are_those_this_process_may_run_on():
     assert cores() == len(os.sched_getaffinity(0)) >= 1
+
+
+_WINDOW = r"""
+import json, os, signal, sys, threading, time
+import concurrent.futures as cf
+from arstream.workers import spawning, worker_context
+
+caught = []
+signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+ctx = worker_context(["slow_import"])  # the fork server imports it: 2 s
+pool = cf.ProcessPoolExecutor(1, mp_context=ctx)
+threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+t0 = time.monotonic()
+with spawning(ctx):
+    fut = pool.submit(signal.getsignal, signal.SIGINT)
+waited = time.monotonic() - t0
+worker = fut.result()
+pool.shutdown()
+print(json.dumps({"waited": waited, "caught": len(caught), "worker_ignores": worker == signal.SIG_IGN}))
+"""
+
+
+@pytest.mark.skipif("forkserver" not in multiprocessing.get_all_start_methods(), reason="no fork server here")
+def test_a_ctrl_c_while_the_workers_start_reaches_the_caller(tmp_path):
+    # submit() waits while the fork server imports its preload (seconds for
+    # arstream.batch's); a Ctrl-C sent then reaches the caller's handler, and
+    # the worker still ignores Ctrl-C from its first instruction (the caller
+    # alone handles it)
+    import json
+    import subprocess
+    import sys
+
+    (tmp_path / "slow_import.py").write_text("import time\ntime.sleep(2.0)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))])}
+    done = subprocess.run([sys.executable, "-c", _WINDOW], capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["waited"] > 0.5, got  # the signal came while submit() waited
+    assert got["caught"] == 1 and got["worker_ignores"], got
