@@ -80,7 +80,7 @@ from scipy.optimize import least_squares
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from geometry.camera import Camera, camera_from_homography, intrinsic_matrix  # noqa: E402
+from geometry.camera import Camera, intrinsic_matrix  # noqa: E402
 from geometry.pitch import Arc, PitchModel, Segment  # noqa: E402
 
 DATA_DIR = ROOT / "tests" / "data" / "real_reference"
