@@ -30,7 +30,11 @@ processes (each registers its scan in place).
 
 Usage::
 
-    python bench/still_scan.py [--synthetic] [--real] [--seeds 1-7] [--jobs N] [--record F] [--from F]
+    python bench/still_scan.py [--synthetic] [--real] [--seeds 1-7] [--jobs N] [--record F] [--from F] [--against G]
+
+``--against G`` lists the stills registered otherwise than in the records
+``G`` (another code's, or the same code on another machine: the
+registration's floating point differs between processors).
 """
 
 from __future__ import annotations
@@ -232,6 +236,38 @@ def report(records: list[dict]) -> None:
                 print(f"| {' '.join(str(x) for x in r['job'][1:]).replace(str(WORKDIR) + '/', '')} | {r.get('error', float('nan')):.1f}, {tuple(r['pitch']['scan']['sizes'][r['pitch']['scan']['chosen']])} | {e:.1f}, {tuple(r['rows'][k]['size'])} |")
 
 
+def _drawn(rec: dict) -> str:
+    """A record's outcome as registered: 'px (source L x W)', or 'lost'."""
+    if rec.get("error") is None:
+        return "lost"
+    p = rec["pitch"]
+    return f"{rec['error']:.1f} ({p['source']} {p['length']:.1f} x {p['width']:.1f})"
+
+
+def compare(before: list[dict], after: list[dict], tol: float = 0.05) -> list[tuple]:
+    """The stills registered otherwise in ``after`` than in ``before`` (two
+    recordings of the same stills: two codes, or one code on two machines):
+    lost or registered in one only, or drawn more than ``tol`` px apart.
+    Printed as a table; returned as (job, before, after) records."""
+    old = {tuple(r["job"]): r for r in before if "failed" not in r}
+    moved = []
+    for r in after:
+        o = old.get(tuple(r["job"]))
+        if o is None or "failed" in r:
+            continue
+        e0, e1 = o.get("error"), r.get("error")
+        if (e0 is None) != (e1 is None) or (e0 is not None and abs(e0 - e1) > tol):
+            moved.append((r["job"], o, r))
+    both = sum(tuple(r["job"]) in old for r in after)
+    print(f"against the other records: {len(moved)} of {both} stills in both registered otherwise (lost in one, or more than {tol} px apart)")
+    if moved:
+        print("\n| still | before: px (size) | now: px (size) |")
+        print("|---|---|---|")
+        for job, o, r in moved:
+            print(f"| {' '.join(str(x) for x in job[1:]).replace(str(WORKDIR) + '/', '')} | {_drawn(o)} | {_drawn(r)} |")
+    return moved
+
+
 def main(argv=None) -> int:
     from arstream.presets import REAL_PRESETS
     from real_footage import SHARED
@@ -246,6 +282,7 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=None, metavar="N", help="processes, one still each (default every core)")
     ap.add_argument("--record", type=Path, help="write the records (a pickle) here")
     ap.add_argument("--from", dest="source", type=Path, help="replay the records in this file instead of registering")
+    ap.add_argument("--against", type=Path, help="list the stills registered otherwise in these records (another code's or machine's)")
     a = ap.parse_args(argv)
     if a.source:
         records = pickle.loads(a.source.read_bytes())
@@ -264,6 +301,9 @@ def main(argv=None) -> int:
         if a.record:
             a.record.write_bytes(pickle.dumps(records))
     report(records)
+    if a.against:
+        print()
+        compare(pickle.loads(a.against.read_bytes()), records)
     return 0
 
 
