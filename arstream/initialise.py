@@ -34,7 +34,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "circle_view_cameras", "penalty_arc_cameras", "register_frame", "register_image"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "paint_seen", "circle_view_cameras", "penalty_arc_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -673,12 +673,30 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         if r is not None and (why := unbacked(r.camera, sup, spread)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
-        return CameraEstimate.lost(0, 0.0, reason="no camera fits the detected markings")
+        seen = "" if image is None else f" (the paint shows {paint_seen(view, detections)})"
+        return CameraEstimate.lost(0, 0.0, reason=f"no camera fits the detected markings{seen}")
     camera = r.camera
     info = {"rms": r.rms, "n_visible": r.n_visible}
     if sup is not None:
         info["support"] = sup
     return CameraEstimate(0, 0.0, "ok", camera, r.confidence, info)
+
+
+def paint_seen(view: PaintView, detections) -> str:
+    """What a frame's paint shows the initialisers, for a lost still's
+    reason: its straight lines (:attr:`PaintView.lines`), the detector's
+    centre-circle ellipses and the penalty arcs (:attr:`PaintView.arcs`).
+
+    >>> class Seen: lines, arcs = [object()], []
+    >>> class Found: ellipses = []
+    >>> paint_seen(Seen(), Found())
+    '1 straight line, no centre circle, no penalty arc'
+    """
+
+    def count(n: int, what: str) -> str:
+        return f"no {what}" if n == 0 else f"{n} {what}{'s' if n > 1 else ''}"
+
+    return ", ".join([count(len(view.lines), "straight line"), count(len(getattr(detections, "ellipses", ()) or ()), "centre circle"), count(len(view.arcs), "penalty arc")])
 
 
 def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7):

@@ -916,3 +916,35 @@ def test_a_still_whose_paint_gives_nothing_looks_again_at_fainter_paint():
     assert est.camera is not None, est.info
     assert est.info["support"] >= PAINT_CHECK
     assert distance_1280(ref, est.camera, size, pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+
+
+@pytest.mark.parametrize(
+    "segments, shows",
+    [
+        ([((100, 500), (1200, 430))], "1 straight line, no centre circle, no penalty arc"),
+        ([((100, 500), (1200, 430)), ((300, 700), (600, 200))], "2 straight lines, no centre circle, no penalty arc"),
+    ],
+    ids=["one line", "two lines"],
+)
+def test_a_lost_still_says_what_its_paint_shows(segments, shows, tmp_path, capsys):
+    # grass with one or two painted lines: no camera can be made, and the
+    # reason says what the initialisers had to work with (register prints it,
+    # and its --json record carries it)
+    from arstream.cli import main
+    from arstream.initialise import register_image
+
+    rng = np.random.default_rng(0)
+    img = np.clip(np.full((720, 1280, 3), (40, 120, 50), np.float64) + rng.normal(0.0, 3.0, (720, 1280, 3)), 0, 255).astype(np.uint8)
+    for p, q in segments:
+        cv2.line(img, p, q, (230, 230, 230), 3, cv2.LINE_AA)
+    est = register_image(img, pitch=PitchModel())
+    assert est.status == "lost" and est.camera is None
+    reason = f"no camera fits the detected markings (the paint shows {shows})"
+    assert est.info["reason"] == reason
+    png = tmp_path / "still.png"
+    cv2.imwrite(str(png), img)
+    assert main(["register", str(png), "--pitch", "105x68"]) == 1
+    assert capsys.readouterr().out == f"lost: {reason}\n"
+    assert main(["register", str(png), "--pitch", "105x68", "--json"]) == 1
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["status"] == "lost" and rec["K"] is None and rec["reason"] == reason

@@ -58,10 +58,12 @@ def run(args) -> int:
     rec.pop("pts", None)
     if made_at is not None:
         rec["pitch"] = made_at.to_dict()
+    if est.camera is None:
+        rec["reason"] = est.info.get("reason", "no camera")
     if args.json:
         print(json.dumps(rec))
     elif est.camera is None:
-        print(f"lost: {est.info.get('reason', 'no camera')}")
+        print(f"lost: {rec['reason']}")
     else:
         c = est.camera
         sup = est.info.get("support")
