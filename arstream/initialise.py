@@ -720,9 +720,10 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     realistic synthetic still of a 103.5 x 74 m pitch the 105 x 68 camera
     scores 0.989 and is drawn 14.9 px off; the estimate's, at 104.6 x 72.7,
     scores 0.935 and is drawn 3.9 px off. Of the 700 points the two dispute,
-    the first lays 2 on paint, the second 36: bench/README.md "Stop 56"). The estimate needs no margin over ``camera``, as a scan's
-    size does over the default (:func:`arstream.pitch_size.choose_still_size`):
-    it is the view's own measure, beyond the noise of the default already.
+    the first lays 2 on paint, the second 36: bench/README.md "Stop 56").
+    The estimate needs no margin over ``camera``, as a scan's size does over
+    the default (:func:`arstream.pitch_size.choose_still_size`): it is the
+    view's own measure, beyond the noise of the default already.
 
     Parameters
     ----------

@@ -399,7 +399,7 @@ def test_a_premier_league_still_keeps_105_x_68_where_its_camera_fits_the_paint_c
     import arstream.initialise as ini
     from arstream.imaging import active_area
     from arstream.pipeline.stages import Analysis
-    from arstream.pitch_size import estimate_view_size
+    from arstream.pitch_size import SCAN_MARGIN, STILL_GAIN_RATIO, estimate_view_size, size_dispute
 
     calls = []
     real = ini.size_from_view
@@ -430,6 +430,9 @@ def test_a_premier_league_still_keeps_105_x_68_where_its_camera_fits_the_paint_c
 
     kept, other = distance(camera, pitch), distance(got.cameras[0], got.model(pitch.line_width))
     assert kept < other, (kept, other)
+    # (what decides: twice as many of the disputed points on paint, under a scan's margin)
+    d = size_dispute([camera, got.cameras[0]], [pitch, got.model(pitch.line_width)], view.bright)(0, 1)
+    assert d.first >= STILL_GAIN_RATIO * d.second and d.first - d.second < SCAN_MARGIN * d.in_view, d
 
 
 def _clip_frame(k: int, clip: str = "artificial_turf_multisport") -> np.ndarray:
