@@ -34,7 +34,7 @@ from geometry.camera import Camera
 from geometry.conics import intersect_line_conic, sampson_distance
 from geometry.pitch import PitchModel
 
-__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "paint_seen", "circle_view_cameras", "penalty_arc_cameras", "register_frame", "register_image"]
+__all__ = ["INIT_ACCEPT", "initialise_camera", "PaintView", "paint_view", "initialise_from_paint", "paint_score", "still_paint_camera", "paint_verdict", "paint_seen", "no_pitch_reason", "circle_view_cameras", "penalty_arc_cameras", "register_frame", "register_image"]
 
 #: least refinement confidence (share of the model in view with a line pixel
 #: near) of an initialisation from the detector's markings
@@ -620,7 +620,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         return _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
     model = ModelSamples.from_pitch(pitch, 0.5)
     if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
-        return CameraEstimate.lost(0, 0.0, reason="no pitch")
+        return CameraEstimate.lost(0, 0.0, reason=no_pitch_reason(detections, image))
     index = LineIndex(detections.line_points)
     r = initialise_camera(detections, index, size, model, principal_point=pp, pitch=pitch)
     # (with the frame, a camera the detector's few lines on a real frame leave
@@ -680,6 +680,28 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     if sup is not None:
         info["support"] = sup
     return CameraEstimate(0, 0.0, "ok", camera, r.confidence, info)
+
+
+#: a picture whose colour channels differ by at most this many levels
+#: everywhere has no colour (a grayscale still): its grass cannot be found
+COLOURLESS_LEVELS = 2
+
+
+def no_pitch_reason(detections, image: np.ndarray | None = None) -> str:
+    """Why a still shows no pitch to register (:func:`register_frame`'s
+    reason): a picture without colour (the grass is found by its green), no
+    grass in view, or too few marking pixels on it.
+
+    >>> no_pitch_reason(None, np.full((4, 4, 3), 90, np.uint8))
+    'no pitch: the picture has no colour (the grass is found by its green)'
+    """
+    if image is not None and image.ndim == 3 and image.shape[2] == 3:
+        b, g, r = (image[::4, ::4, c].astype(np.int16) for c in range(3))
+        if max(int(np.abs(b - g).max()), int(np.abs(g - r).max())) <= COLOURLESS_LEVELS:
+            return "no pitch: the picture has no colour (the grass is found by its green)"
+    if detections is None or not getattr(detections, "pitch_visible", True):
+        return "no pitch: no grass in view"
+    return f"no pitch markings: {len(detections.line_points)} line pixels on the grass"
 
 
 def paint_seen(view: PaintView, detections) -> str:

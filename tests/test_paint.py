@@ -936,8 +936,7 @@ def test_a_lost_still_says_what_its_paint_shows(segments, shows, tmp_path, capsy
     from arstream.cli import main
     from arstream.initialise import register_image
 
-    rng = np.random.default_rng(0)
-    img = np.clip(np.full((720, 1280, 3), (40, 120, 50), np.float64) + rng.normal(0.0, 3.0, (720, 1280, 3)), 0, 255).astype(np.uint8)
+    img = _flat((40, 120, 50))
     for p, q in segments:
         cv2.line(img, p, q, (230, 230, 230), 3, cv2.LINE_AA)
     est = register_image(img, pitch=PitchModel())
@@ -951,3 +950,25 @@ def test_a_lost_still_says_what_its_paint_shows(segments, shows, tmp_path, capsy
     assert main(["register", str(png), "--pitch", "105x68", "--json"]) == 1
     rec = json.loads(capsys.readouterr().out)
     assert rec["status"] == "lost" and rec["K"] is None and rec["reason"] == reason
+
+
+def _flat(bgr) -> np.ndarray:
+    """A 1280 x 720 picture of one colour (BGR) with a little noise."""
+    rng = np.random.default_rng(0)
+    return np.clip(np.full((720, 1280, 3), bgr, np.float64) + rng.normal(0.0, 3.0, (720, 1280, 3)), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize(
+    "picture, reason",
+    [
+        (lambda: cv2.cvtColor(cv2.cvtColor(_flat((40, 120, 50)), cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR), "no pitch: the picture has no colour (the grass is found by its green)"),
+        (lambda: _flat((160, 90, 40)), "no pitch: no grass in view"),
+        (lambda: _flat((40, 120, 50)), "no pitch markings: 0 line pixels on the grass"),
+    ],
+    ids=["grayscale", "no grass", "bare grass"],
+)
+def test_a_still_with_no_pitch_says_why(picture, reason):
+    from arstream.initialise import register_image
+
+    est = register_image(picture(), pitch=PitchModel())
+    assert est.status == "lost" and est.info["reason"] == reason
