@@ -682,9 +682,11 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     return CameraEstimate(0, 0.0, "ok", camera, r.confidence, info)
 
 
-#: a picture whose colour channels differ by at most this many levels
-#: everywhere has no colour (a grayscale still): its grass cannot be found
-COLOURLESS_LEVELS = 2
+#: a picture whose colour channels differ by at most this many levels on
+#: 99 % of its pixels has no colour (a grayscale still, or a grayscale clip
+#: through a codec's chroma rounding: 3 levels): its grass cannot be found
+#: (grass is green by at least 4 levels more: :func:`arstream.detect.paint.grass_beside`)
+COLOURLESS_LEVELS = 4
 
 
 def no_pitch_reason(detections, image: np.ndarray | None = None) -> str:
@@ -697,7 +699,7 @@ def no_pitch_reason(detections, image: np.ndarray | None = None) -> str:
     """
     if image is not None and image.ndim == 3 and image.shape[2] == 3:
         b, g, r = (image[::4, ::4, c].astype(np.int16) for c in range(3))
-        if max(int(np.abs(b - g).max()), int(np.abs(g - r).max())) <= COLOURLESS_LEVELS:
+        if np.percentile(np.maximum(np.abs(b - g), np.abs(g - r)), 99) <= COLOURLESS_LEVELS:
             return "no pitch: the picture has no colour (the grass is found by its green)"
     if detections is None or not getattr(detections, "pitch_visible", True):
         return "no pitch: no grass in view"

@@ -259,3 +259,20 @@ def test_render_does_not_say_tracked():
     assert drawn.to_dict()["cameras_in"] == "c.jsonl"
     tracked = Summary(frames=4, tracked=3, seconds=1.0, confidence=0.5)
     assert tracked.line() == "4 frames in 1.0 s (4.0 fps), tracked 75.0%, mean confidence 0.50"
+
+
+# --------------------------------------------------------------------------- a clip with no camera at all
+def test_a_clip_with_no_camera_says_so_and_where_to_look(tmp_path, capsys):
+    # a grayscale clip: every frame lost, the outputs written as always; the
+    # summary is followed by a warning that points at register, which says why
+    import numpy as np
+
+    clip = tmp_path / "grey.mp4"
+    with VideoSink(clip, 320, 180, 25) as sink:
+        for _ in range(6):
+            sink.write(np.full((180, 320, 3), 100, np.uint8))
+    code, err = cli(capsys, "process", clip, "--cameras-out", tmp_path / "c.jsonl", "--pitch", "105x68")
+    assert code == 0
+    assert err.strip() == f"arstream: warning: no frame got a camera, so nothing was drawn: the frames show no pitch whose markings give one (`arstream register {clip} --frame N` says why for frame N)"
+    assert main(["register", str(clip), "--frame", "3"]) == 1
+    assert capsys.readouterr().out == "lost: no pitch: the picture has no colour (the grass is found by its green)\n"

@@ -130,6 +130,8 @@ def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
             print(f"(judge these cameras at this size: arstream eval --pitch {pitch['length']:.1f}x{pitch['width']:.1f})")
     for stage in summary.missing:
         warn(f"no {stage} stage in this build{missing(stage)}")
+    if summary.cameras_in is None and summary.frames > 0 and summary.tracked == 0 and "track" not in summary.missing:
+        warn(f"no frame got a camera, so nothing was drawn: the frames show no pitch whose markings give one (`arstream register {summary.input} --frame N` says why for frame N)")
     if summary.errors:
         for e in summary.errors:
             warn(e)
