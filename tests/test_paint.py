@@ -384,9 +384,7 @@ def test_register_a_resized_premier_league_frame(frame):
     assert abs(cam.K[1, 1] / cam.K[0, 0] - an.sy / an.sx) < 1e-12 and abs(an.sy / an.sx - 16 / 9) < 0.01
     ref, pitch, _ = _reference("sequence_epl", frame)
     # distances in pixels of the frame as shown (square pixels, 16:9), 1280 wide
-    a = 16 / 9
-    shown = [Camera(K=np.diag([a, 1.0, 1.0]) @ c.K, R=c.R, t=c.t, dist=c.dist) for c in (ref, cam)]
-    assert distance_1280(*shown, (round(W * a), H), pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+    assert distance_1280(ref, cam, (W, H), pitch, est.info["pitch"].model(), pixel_aspect=16 / 9) <= MAX_DISTANCE_1280
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
@@ -420,13 +418,9 @@ def test_a_premier_league_still_keeps_105_x_68_where_its_camera_fits_the_paint_c
     # both cameras on the frame as shown (square pixels, 16:9), against the reference
     an = Analysis(W, H, None, pixel_aspect=16 / 9, area=active_area(img))
     ref, ref_pitch, _ = _reference("sequence_epl", 0)
-    a = np.diag([16 / 9, 1.0, 1.0])
-
-    def shown(c):
-        return Camera(K=a @ c.K, R=c.R, t=c.t, dist=c.dist)
 
     def distance(c, made_at):
-        return distance_1280(shown(ref), shown(an.camera(c)), (round(W * 16 / 9), H), ref_pitch, made_at)
+        return distance_1280(ref, an.camera(c), (W, H), ref_pitch, made_at, pixel_aspect=16 / 9)
 
     kept, other = distance(camera, pitch), distance(got.cameras[0], got.model(pitch.line_width))
     assert kept < other, (kept, other)
