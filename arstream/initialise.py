@@ -692,12 +692,12 @@ COLOURLESS_LEVELS = 4
 def no_pitch_reason(detections, image: np.ndarray | None = None) -> str:
     """Why a still shows no pitch to register (:func:`register_frame`'s
     reason): a picture without colour (the grass is found by its green), no
-    grass in view, or too few marking pixels on it.
+    grass in view, or too few marking pixels on it. ``image``: the frame, BGR.
 
     >>> no_pitch_reason(None, np.full((4, 4, 3), 90, np.uint8))
     'no pitch: the picture has no colour (the grass is found by its green)'
     """
-    if image is not None and image.ndim == 3 and image.shape[2] == 3:
+    if image is not None:
         b, g, r = (image[::4, ::4, c].astype(np.int16) for c in range(3))
         if np.percentile(np.maximum(np.abs(b - g), np.abs(g - r)), 99) <= COLOURLESS_LEVELS:
             return "no pitch: the picture has no colour (the grass is found by its green)"
@@ -720,7 +720,7 @@ def paint_seen(view: PaintView, detections) -> str:
     def count(n: int, what: str) -> str:
         return f"no {what}" if n == 0 else f"{n} {what}{'s' if n > 1 else ''}"
 
-    return ", ".join([count(len(view.lines), "straight line"), count(len(getattr(detections, "ellipses", ()) or ()), "centre circle"), count(len(view.arcs), "penalty arc")])
+    return ", ".join([count(len(view.lines), "straight line"), count(len(detections.ellipses), "centre circle"), count(len(view.arcs), "penalty arc")])
 
 
 def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7):

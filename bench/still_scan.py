@@ -206,6 +206,11 @@ def replay(rec: dict) -> int:
     return choose_still_size([tuple(r["size"]) for r in rows], [r["support"] for r in rows], dispute).chosen
 
 
+def _name(job) -> str:
+    """A still's job as a table shows it: 'real-wide-3-200 150', 'ucl_2009 bar-25'."""
+    return " ".join(str(x) for x in job[1:]).replace(str(WORKDIR) + "/", "")
+
+
 def _bins(errors) -> str:
     e = [x for x in errors if x is not None]
     return f"{sum(x <= 5 for x in e)} / {sum(5 < x <= 20 for x in e)} / {sum(x > 20 for x in e)} / {sum(x is None for x in errors)}"
@@ -233,7 +238,7 @@ def report(records: list[dict]) -> None:
             print("\n| still | as registered: px, size | now: px, size |")
             print("|---|---|---|")
             for r, k, e in moved:
-                print(f"| {' '.join(str(x) for x in r['job'][1:]).replace(str(WORKDIR) + '/', '')} | {r.get('error', float('nan')):.1f}, {tuple(r['pitch']['scan']['sizes'][r['pitch']['scan']['chosen']])} | {e:.1f}, {tuple(r['rows'][k]['size'])} |")
+                print(f"| {_name(r['job'])} | {r.get('error', float('nan')):.1f}, {tuple(r['pitch']['scan']['sizes'][r['pitch']['scan']['chosen']])} | {e:.1f}, {tuple(r['rows'][k]['size'])} |")
 
 
 def _drawn(rec: dict) -> str:
@@ -264,7 +269,7 @@ def compare(before: list[dict], after: list[dict], tol: float = 0.05) -> list[tu
         print("\n| still | before: px (size) | now: px (size) |")
         print("|---|---|---|")
         for job, o, r in moved:
-            print(f"| {' '.join(str(x) for x in job[1:]).replace(str(WORKDIR) + '/', '')} | {_drawn(o)} | {_drawn(r)} |")
+            print(f"| {_name(job)} | {_drawn(o)} | {_drawn(r)} |")
     return moved
 
 
