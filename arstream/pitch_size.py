@@ -87,7 +87,8 @@ VIEW_CONSTRAINS = 0.5
 #: 105 m, 0.82; synthetic clips of other sizes 0.78-0.94. The realistic
 #: presets (seeds 1-7 at their drawn sizes, 1-5 at 105 x 68; bench/README.md
 #: "Stop 50") overlap: 105 x 68 0.955-0.995, other sizes 0.77-0.97 (3 of 28
-#: at 0.95-0.97, 2-4 m off); 0.97 would scan 7 of the 20 at 105 x 68 too
+#: at 0.95-0.97, 2-4 m off); 0.97 would scan 7 of the 20 at 105 x 68 too.
+#: Two of those three are scanned since by their views' estimate (:func:`needs_scan`)
 SCAN_BELOW = 0.95
 #: how much higher another size's median line support must be to replace
 #: the default (:func:`choose_size`): the same clip tracked at sizes that fit
@@ -289,13 +290,24 @@ def _median(supports, min_frames: int = SCAN_MIN_FRAMES) -> float | None:
     return float(np.median(v)) if len(v) >= max(1, int(min_frames)) else None
 
 
-def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES) -> bool:
+def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | None" = None, default=(105.0, 68.0)) -> bool:
     """Whether a clip tracked at the default size should be tracked at others:
     its median line support (over the frames with a camera; ``supports`` one
     value per judged frame, None for a frame without one) is below
-    :data:`SCAN_BELOW`, over at least ``min_frames`` frames."""
+    :data:`SCAN_BELOW`, over at least ``min_frames`` frames; or, over as
+    many, the size its own views estimate (``seen``: the tracker's
+    :meth:`arstream.track.Tracker.pitch_seen`, its views made at
+    ``default``) lies beyond two of its standard deviations of ``default``
+    along a dimension the views fix (:meth:`PitchSize.within_noise`). A
+    pitch a few metres off can keep nearly all its markings near paint (a
+    101 x 68 m pitch tracked at 105 x 68 at a median of 0.95), while the
+    views, fitted together about one tripod, tell its size; on clips of a
+    105 x 68 m pitch they estimate it within 0.1 m. The scan then decides
+    (:func:`choose_size`): the estimate only asks."""
     m = _median(supports, min_frames)
-    return m is not None and m < SCAN_BELOW
+    if m is None:
+        return False
+    return m < SCAN_BELOW or (seen is not None and seen.source == "estimated" and not seen.within_noise(default))
 
 
 def grid_neighbours(size) -> list[tuple[float, float]]:

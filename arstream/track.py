@@ -264,6 +264,10 @@ class Tracker:
         (:func:`arstream.pitch_size.estimate_pitch_size`; :attr:`pitch_size`
         says what was found). Experimental: on synthetic clips the length
         comes out within about 1 m, with an understated uncertainty
+    watch_pitch : keep the views the size's estimate would take (as
+        ``estimate_pitch`` does) but track at ``pitch`` throughout;
+        :meth:`pitch_seen` estimates the size from them (whether the clip
+        fits ``pitch`` as well as its line support says)
     principal_point : (2,) pixels; default the image centre
     config : TrackerConfig
     support_reach : int, the line-support test's tolerance (pixels of the
@@ -271,7 +275,7 @@ class Tracker:
         half of it, so that the test matches the 2 px of the frame that docs/evaluate.md defines)
     """
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2, estimate_pitch: bool = False):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2, estimate_pitch: bool = False, watch_pitch: bool = False):
         if width <= 0 or height <= 0:
             raise ValueError(f"invalid frame size {width}x{height}")
         if lag < 0:
@@ -281,7 +285,8 @@ class Tracker:
         self.lag = int(lag)
         self.pitch = pitch or PitchModel()
         self.pitch_size = PitchSize(self.pitch.length, self.pitch.width, source="default" if pitch is None else "given")
-        self._pitch_views: list[PitchView] | None = [] if estimate_pitch else None
+        self._pitch_views: list[PitchView] | None = [] if estimate_pitch or watch_pitch else None
+        self._watch_pitch = bool(watch_pitch) and not estimate_pitch
         self._pitch_view_at = -(10**9)
         self.pp = np.array(principal_point if principal_point is not None else ((width - 1) / 2, (height - 1) / 2), dtype=np.float64)
         self.cfg = config or TrackerConfig()
@@ -790,7 +795,7 @@ class Tracker:
             return
         self._pitch_view_at = index
         views.append(PitchView(est.camera, lidx.points.copy(), self.size))
-        if len(views) not in c.pitch_views:
+        if self._watch_pitch or len(views) not in c.pitch_views:
             return
         try:
             size = estimate_pitch_size(views, self.pitch, centre=self.centre)
@@ -819,6 +824,26 @@ class Tracker:
         Rz = self._kf.R.copy() if self._kf is not None else np.diag([1e-6, 1e-6, 1e-6, 1e-5])
         self._kf = self._new_filter(z, Rz, rates)
         self._kf_id = self._kf_at = index
+
+    def pitch_seen(self) -> PitchSize | None:
+        """The pitch's size estimated from the views kept so far (with
+        ``watch_pitch``: all of them made at the size tracked with), or None
+        with fewer than the first estimate's count of views
+        (``TrackerConfig.pitch_views``) or views that fix nothing. Of the
+        (at most ``pitch_views[-1]``) views kept, ``pitch_views[1]`` evenly
+        spread are fitted: the estimate's jackknife costs a fit per view,
+        and half of 24 views estimate the size as all of them do on the
+        realistic synthetic clips (within 0.1 m at 105 x 68; 1-3.5 s
+        against 4-14 s on this machine's 2 cores)."""
+        views = self._pitch_views
+        if not self._watch_pitch or views is None or len(views) < self.cfg.pitch_views[0]:
+            return None
+        n = min(len(views), self.cfg.pitch_views[1])
+        views = [views[int(i)] for i in np.round(np.linspace(0, len(views) - 1, n))]
+        try:
+            return estimate_pitch_size(views, self.pitch, centre=self.centre)
+        except ValueError:
+            return None
 
     def _pan_sweep(self, pred: Camera, lidx: LineIndex, image: np.ndarray | None = None) -> Refinement | None:
         """Re-find the camera after a pan the filter did not follow: score pan angles

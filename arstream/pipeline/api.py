@@ -212,7 +212,8 @@ def process(
     overlap : detect frame i+1 on a worker thread while frame i is tracked and rendered
     pitch : (length, width) in metres or a ``geometry.pitch.PitchModel``, when
         the pitch's size is known. None (default): 105 x 68, and when the
-        clip's markings fit it poorly (:func:`arstream.pitch_size.needs_scan`)
+        clip's markings fit it poorly or its views estimate another size
+        (:func:`arstream.pitch_size.needs_scan`)
         the clip is tracked again at other sizes and, when one fits better
         (:func:`arstream.pitch_size.choose_size`), run again from it with the
         size estimated; ``summary.pitch`` says what was done (its ``scan``
@@ -253,22 +254,24 @@ def process(
     # (the picture inside black bars, once: a second run, after the pitch scan, analyses the same)
     area = _picture_area(input, threads=threads != 1)
     run = dict(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, progress=progress, max_frames=max_frames, handle_signals=handle_signals, overlap=overlap, analysis_width=analysis_width, pixel_aspect=pixel_aspect, threads=threads, keep_b_frames=keep_b_frames, area=area)
-    first, supports, an, _ = _process_once(input, output, cameras_out, pitch=pitch, **run)
+    first, supports, an, seen = _process_once(input, output, cameras_out, pitch=pitch, watch_pitch=pitch is None, **run)
     if pitch is not None or not _has("arstream.track"):
         return first
     from arstream.pitch_size import SCAN_MIN_FRAMES, needs_scan
 
-    if not needs_scan(supports, min_frames=max(5, SCAN_MIN_FRAMES // JUDGE_EVERY)):
+    if not needs_scan(supports, min_frames=max(5, SCAN_MIN_FRAMES // JUDGE_EVERY), seen=seen):
         return first
     return _rescan(input, output, cameras_out, first, an, run)
 
 
-def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False) -> tuple[Summary, list, Analysis, object]:
+def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False, watch_pitch: bool = False) -> tuple[Summary, list, Analysis, object]:
     """One run of :func:`process`: (its summary, the line support of every
     :data:`JUDGE_EVERY`-th frame (None: no camera), the Analysis it worked
     at, the tracker's PitchSize or None). ``estimate_pitch``: estimate the
-    size starting from ``pitch``; ``area``: the picture inside black bars
-    (:func:`_picture_area`)."""
+    size starting from ``pitch``; ``watch_pitch``: track at ``pitch``, and
+    the PitchSize returned is the size its views estimate
+    (:meth:`arstream.track.Tracker.pitch_seen`, None when they fix nothing);
+    ``area``: the picture inside black bars (:func:`_picture_area`)."""
     single = threads == 1
     with _open(input, threads=not single) as src:
         W, H = src.width, src.height
@@ -277,7 +280,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
         stages = _build(
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch)),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch, watch_pitch=watch_pitch)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -295,7 +298,10 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
             summary = pipe.run(handle_signals=handle_signals)
         finally:
             _note_pitch(pipe.summary, track_box)
-    return summary, (track_box[0].supports if track_box else []), an, getattr(getattr(track_box[0], "tracker", None), "pitch_size", None) if track_box else None
+    tracker = getattr(track_box[0], "tracker", None) if track_box else None
+    if tracker is None:
+        return summary, (track_box[0].supports if track_box else []), an, None
+    return summary, track_box[0].supports, an, tracker.pitch_seen() if watch_pitch else tracker.pitch_size
 
 
 def _aside(path):

@@ -340,17 +340,19 @@ class TrackStage(Stage):
     ``lag>0`` (offline): a fixed-lag smoother; the stage holds the items
     whose estimates are not final yet (at most ``lag`` plus a small margin),
     keeping only what rendering needs (the frame and a copy of the grass
-    matte). Without a tracker module every frame is "lost".
+    matte). Without a tracker module every frame is "lost". ``pitch``,
+    ``estimate_pitch``, ``watch_pitch``: the tracker's (``pitch="auto"``:
+    105 x 68 m with the size estimated).
     """
 
     name = "track"
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None, pitch=None, estimate_pitch: bool = False):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, tracker=None, enabled: bool = True, analysis: Analysis | None = None, pitch=None, estimate_pitch: bool = False, watch_pitch: bool = False):
         self.analysis = analysis or Analysis(width, height)
         if tracker is None and enabled:
             cls = _optional("arstream.track", "Tracker")
             auto = isinstance(pitch, str) and pitch == "auto"
-            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, principal_point=self.analysis.principal_point, support_reach=self.analysis.support_reach, pitch=None if auto else pitch, estimate_pitch=auto or estimate_pitch) if cls is not None else None
+            tracker = cls(self.analysis.w, self.analysis.h, fps=fps, lag=lag, principal_point=self.analysis.principal_point, support_reach=self.analysis.support_reach, pitch=None if auto else pitch, estimate_pitch=auto or estimate_pitch, watch_pitch=watch_pitch) if cls is not None else None
         self.tracker = tracker
         #: the line support (docs/evaluate.md, on the frame at its own size) of
         #: every :data:`JUDGE_EVERY`-th frame released, None where it had no
