@@ -302,7 +302,8 @@ def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | N
     pitch a few metres off can keep nearly all its markings near paint (a
     101 x 68 m pitch tracked at 105 x 68 at a median of 0.95), while the
     views, fitted together about one tripod, tell its size; on clips of a
-    105 x 68 m pitch they estimate it within 0.1 m. The scan then decides
+    105 x 68 m pitch they estimate it within 0.15 m, half a standard
+    deviation (bench/README.md "Stop 57"). The scan then decides
     (:func:`choose_size`): the estimate only asks."""
     m = _median(supports, min_frames)
     if m is None:

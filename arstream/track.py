@@ -827,9 +827,11 @@ class Tracker:
 
     def pitch_seen(self) -> PitchSize | None:
         """The pitch's size estimated from the views kept so far (with
-        ``watch_pitch``: all of them made at the size tracked with), or None
-        with fewer than the first estimate's count of views
-        (``TrackerConfig.pitch_views``) or views that fix nothing. Of the
+        ``watch_pitch``: all of them made at the size tracked with; a
+        dimension they do not fix keeps that size, with no standard
+        deviation), or None without ``watch_pitch``, with fewer than the
+        first estimate's count of views (``TrackerConfig.pitch_views``), or
+        when their markings do not match their paint. Of the
         (at most ``pitch_views[-1]``) views kept, ``pitch_views[1]`` evenly
         spread are fitted: the estimate's jackknife costs a fit per view,
         and half of 24 views estimate the size as all of them do on the

@@ -270,7 +270,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
     at, the tracker's PitchSize or None). ``estimate_pitch``: estimate the
     size starting from ``pitch``; ``watch_pitch``: track at ``pitch``, and
     the PitchSize returned is the size its views estimate
-    (:meth:`arstream.track.Tracker.pitch_seen`, None when they fix nothing);
+    (:meth:`arstream.track.Tracker.pitch_seen`; None with too few views);
     ``area``: the picture inside black bars (:func:`_picture_area`)."""
     single = threads == 1
     with _open(input, threads=not single) as src:
