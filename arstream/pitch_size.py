@@ -290,7 +290,7 @@ def _median(supports, min_frames: int = SCAN_MIN_FRAMES) -> float | None:
     return float(np.median(v)) if len(v) >= max(1, int(min_frames)) else None
 
 
-def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | None" = None, default=(105.0, 68.0)) -> bool:
+def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | None" = None, default=None) -> bool:
     """Whether a clip tracked at the default size should be tracked at others:
     its median line support (over the frames with a camera; ``supports`` one
     value per judged frame, None for a frame without one) is below
@@ -304,10 +304,13 @@ def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | N
     views, fitted together about one tripod, tell its size; on clips of a
     105 x 68 m pitch they estimate it within 0.15 m, half a standard
     deviation (bench/README.md "Stop 57"). The scan then decides
-    (:func:`choose_size`): the estimate only asks."""
+    (:func:`choose_size`): the estimate only asks. ``default``: (length,
+    width), None for :class:`geometry.pitch.PitchModel`'s."""
     m = _median(supports, min_frames)
     if m is None:
         return False
+    if default is None:
+        default = (PitchModel().length, PitchModel().width)
     return m < SCAN_BELOW or (seen is not None and seen.source == "estimated" and not seen.within_noise(default))
 
 

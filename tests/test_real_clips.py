@@ -101,9 +101,10 @@ def test_israel_league_wide(tmp_path):
     assert score.drawn_below_0_5 == 0, score
     assert len(dist) == 13 and np.mean([d <= 5.0 for d in dist.values()]) >= 0.9, dist
     # target 1 px: not met, held to today's level. Frames 76-86 are a whip pan
-    # whose own image motion changes by up to 28 px a frame (phase correlation
-    # of consecutive frames): the proxy of the true cameras is about 2.5 px over
-    # the clip (2.31 px on 2026-11-29, 2.39 before a centre move's step was
+    # whose own image motion changes by up to 28 px a frame: on its own it puts
+    # 1.8 px into the proxy of cameras that follow the picture exactly, whose
+    # proxy is 2.4-2.5 px over the clip (bench/jitter_floor.py, frame-to-frame
+    # homographies of tracked corners; 2.31 px on 2026-11-29, 2.39 before a centre move's step was
     # spread over the smoother's window). After it (frames 88-403, tracked
     # before too): 1.03 px on 2026-11-29 (1.21 before)
     assert score.jitter_1280 <= 2.7, score
@@ -130,10 +131,13 @@ def test_israel_league_wide_at_480p(tmp_path):
     # camera lays it on the bright edge of the grass, 5-10 px beyond its
     # paint (docs/real-footage.md, "The same clips through other broadcast
     # chains"; no reference cameras there to judge either by).
-    # Jitter not held (3.4 px)
+    # Jitter not held (3.4 px). At 105 x 68, as the evaluation judges it:
+    # with no size its median support (0.94) starts the size scan, which
+    # keeps 105 x 68 on such copies (bench/README.md "Stop 57"), at four
+    # times the time
     clip = reencode(SHARED / "clips" / "israel_league_wide.mp4", tmp_path / "israel_480p.mpg", (848, 478), 1500, 200, codec="mpeg2video")
     out = tmp_path / "cameras.jsonl"
-    s = process(clip, cameras_out=out, handle_signals=False)
+    s = process(clip, cameras_out=out, handle_signals=False, pitch=(105.0, 68.0))
     records = [json.loads(line) for line in out.read_text().splitlines()]
     score = evaluate_video(clip, records)
     assert s.frames == 200 and (score.width, score.height) == (848, 478)

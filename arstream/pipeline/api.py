@@ -299,9 +299,8 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
         finally:
             _note_pitch(pipe.summary, track_box)
     tracker = getattr(track_box[0], "tracker", None) if track_box else None
-    if tracker is None:
-        return summary, (track_box[0].supports if track_box else []), an, None
-    return summary, track_box[0].supports, an, tracker.pitch_seen() if watch_pitch else tracker.pitch_size
+    size = None if tracker is None else tracker.pitch_seen() if watch_pitch else tracker.pitch_size
+    return summary, (track_box[0].supports if track_box else []), an, size
 
 
 def _aside(path):
