@@ -340,6 +340,52 @@ def test_the_scan_s_passes_over_the_grid():
 
 
 @pytest.mark.parametrize(
+    "lean, expected",
+    [
+        ({(110.0, 68.0): 0.03, (105.0, 64.0): 0.03}, (110.0, 64.0)),  # one step along each dimension leans up: both steps
+        ({(100.0, 68.0): 0.03, (105.0, 72.0): 0.03}, (100.0, 72.0)),
+        ({(110.0, 68.0): 0.03}, None),  # the width does not lean: the length alone did not win, nothing more to try
+        ({(110.0, 68.0): 0.03, (100.0, 68.0): 0.03, (105.0, 64.0): 0.03}, None),  # the length leans both ways: open
+        ({(110.0, 68.0): 0.03, (105.0, 64.0): 0.0}, None),  # a tie along the width is no lean
+        ({(110.0, 68.0): 0.03, (105.0, 64.0): -0.03}, None),
+    ],
+)
+def test_a_scan_whose_steps_each_lean_up_tries_both_steps_at_once(lean, expected):
+    # no single step from 105 x 68 wins (each 0.03 higher: under SCAN_MARGIN,
+    # 4 blocks for of 200 frames, under SCAN_MIN_BLOCKS), but one along each
+    # dimension leans above it: the size taking both is tracked and judged by
+    # the same rule (a pitch off along both dimensions moves each single step
+    # only part of the way). Nothing more is tracked otherwise
+    from arstream.pipeline.pitch_scan import scan_passes
+    from arstream.pitch_size import choose_size, diagonal_step
+
+    base = _noisy(100, 3)
+    fit = dict(lean)
+
+    def sup(size):
+        if expected is not None and size == expected:
+            return [b + 0.08 for b in base]  # (both steps: clearly higher)
+        return [b + fit.get(size, 0.0 if size == (105.0, 68.0) else -0.02) for b in base]
+
+    asked = []
+
+    def track(sizes):
+        asked.append(list(sizes))
+        return [sup(s) for s in sizes]
+
+    first = [(105.0, 68.0), (100.0, 68.0), (110.0, 68.0), (105.0, 64.0), (105.0, 72.0)]
+    assert diagonal_step(choose_size(first, [sup(s) for s in first])) == expected
+    got = scan_passes(track)
+    if expected is None:
+        assert asked == [first] and got.chosen == 0
+    else:
+        assert asked == [first, [expected]] and got.size == expected, got.describe()
+    # the diagonal is asked only of a scan that kept the default and has its supports
+    won = choose_size(first, [sup(s) if s != (110.0, 68.0) else [b + 0.1 for b in base] for s in first])
+    assert won.chosen != 0 and diagonal_step(won) is None
+
+
+@pytest.mark.parametrize(
     "clip, chosen",
     [
         ("real-multisport 5", (105.0, 72.0)),  # 105 x 72 higher in 7 of 8 seconds, by 0.014 on the medians
@@ -347,10 +393,11 @@ def test_the_scan_s_passes_over_the_grid():
         ("real-multisport 3 at 105 x 68", (105.0, 68.0)),  # a pitch of 105 x 68: no neighbour higher throughout
         ("israel_league_wide_848x478_26", (105.0, 68.0)),  # 100 m higher in 6 s, 110 m in 3: the length is open
         ("artificial_turf_multisport", (100.0, 68.0)),  # 0.997 against 0.850 on the medians
+        ("real-wide 22", (110.0, 64.0)),  # a 110 x 64.5 m pitch: no single step wins, both together do (diagonal_step)
     ],
 )
 def test_the_scan_on_tracked_clips(clip, chosen):
-    # the scan's trackers' line supports of five clips (tests/data/size_scan/README.md)
+    # the scan's trackers' line supports of six clips (tests/data/size_scan/README.md)
     import json
     from pathlib import Path
 

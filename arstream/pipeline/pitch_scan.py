@@ -19,7 +19,7 @@ from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, grid_neighbours, with_size
+from arstream.pitch_size import SizeScan, choose_size, diagonal_step, grid_neighbours, with_size
 from arstream.support import frame_mask, line_support, marking_points
 
 __all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
@@ -151,7 +151,9 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     (:func:`arstream.pitch_size.grid_neighbours`) are tracked with it, on
     the clip's first frames (at most :data:`SCAN_MAX_FRAMES`); when one of
     them wins (:func:`arstream.pitch_size.choose_size`), that one's
-    neighbours too, in a second pass (a length and a width both off). The
+    neighbours too, in a second pass (a length and a width both off); when
+    none wins but one step along each axis leans above 105 x 68, the size
+    two steps off that takes both (:func:`arstream.pitch_size.diagonal_step`). The
     choice is :func:`~arstream.pitch_size.choose_size` over every size
     tracked (:func:`scan_passes`): all of them on the same frames by the
     same causal tracker, so their line supports compare, frame by frame.
@@ -217,8 +219,10 @@ def scan_passes(track: Callable[[list], list]) -> SizeScan:
     The first pass tracks 105 x 68 and its grid neighbours
     (:func:`arstream.pitch_size.grid_neighbours`); when one of them wins
     (:func:`arstream.pitch_size.choose_size`), a second pass tracks that
-    one's neighbours not yet tracked, and the choice is made again over
-    every size tracked.
+    one's neighbours not yet tracked, and when none wins but one along each
+    dimension leans above 105 x 68, the size that takes both steps
+    (:func:`arstream.pitch_size.diagonal_step`); the choice is made again
+    over every size tracked.
 
     Parameters
     ----------
@@ -236,13 +240,16 @@ def scan_passes(track: Callable[[list], list]) -> SizeScan:
     tracked: dict = {}
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
     pick = None
-    for _ in range(2):
+    for first in (True, False):
         new = [s for s in todo if s not in tracked]
         if not new:
             break
         tracked.update(zip(new, track(new)))
         pick = choose_size(list(tracked), list(tracked.values()))  # (over every size tracked so far)
-        if pick.chosen == 0:
+        if pick.chosen != 0:
+            todo = grid_neighbours(pick.size)
+        elif first and (both := diagonal_step(pick)) is not None:
+            todo = [both]
+        else:
             break
-        todo = grid_neighbours(pick.size)
     return pick
