@@ -311,7 +311,8 @@ def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | N
     if m is None:
         return False
     if default is None:
-        default = (PitchModel().length, PitchModel().width)
+        p = PitchModel()
+        default = (p.length, p.width)
     return m < SCAN_BELOW or (seen is not None and seen.source == "estimated" and not seen.within_noise(default))
 
 
@@ -371,6 +372,22 @@ def higher_throughout(base, other) -> bool:
     return bool(pro >= SCAN_MIN_BLOCKS and binomtest(pro, pro + con, 0.5, alternative="greater").pvalue <= SCAN_SIGN_LEVEL)
 
 
+def leans_above(base, other) -> bool:
+    """Whether the clip's paint leans towards ``other``'s cameras over
+    ``base``'s: more blocks for it than against (:func:`paired_blocks`), the
+    weakest sign the scan reads (a neighbour that leans the same way as its
+    mirror leaves the dimension open; :func:`choose_size`,
+    :func:`diagonal_step`).
+
+    Parameters
+    ----------
+    base, other : sequences of the same frames, a line support per frame
+        (None where that size's tracker gave no camera)
+    """
+    pro, con = paired_blocks(base, other)
+    return pro > con
+
+
 def choose_size(sizes, supports) -> SizeScan:
     """The size whose cameras the clip's paint backs best.
 
@@ -419,11 +436,6 @@ def choose_size(sizes, supports) -> SizeScan:
         # baseline: the scan's trackers cannot follow this clip there)
         return med[j] is not None and med[k] is not None and (med[k] >= med[j] + SCAN_MARGIN or higher_throughout(supports[j], supports[k]))
 
-    def leans(k: int) -> bool:
-        # (more blocks for the size than against it)
-        pro, con = paired_blocks(supports[0], supports[k])
-        return pro > con
-
     def opposite(k: int) -> int | None:
         # (the size on the other side of the default along the one dimension k changes)
         axes = [a for a in (0, 1) if sizes[k][a] != d[a]]
@@ -439,7 +451,7 @@ def choose_size(sizes, supports) -> SizeScan:
         if med[k] >= med[0] + SCAN_MARGIN:
             return True
         o = opposite(k)
-        return o is None or med[o] is None or not leans(o)
+        return o is None or med[o] is None or not leans_above(supports[0], supports[o])
 
     up = [k > 0 and up(k) for k in range(len(sizes))]
     open_axes = []
@@ -598,8 +610,7 @@ def diagonal_step(scan: SizeScan) -> tuple[float, float] | None:
             s = scan.sizes[k]
             if s[1 - a] != d[1 - a] or s[a] == d[a] or med[k] is None:
                 continue
-            pro, con = paired_blocks(scan.supports[0], scan.supports[k])
-            if med[k] > med[0] and pro > con:
+            if med[k] > med[0] and leans_above(scan.supports[0], scan.supports[k]):
                 lean.append(s[a])
         if len(lean) != 1:
             return None
