@@ -35,6 +35,7 @@ import numpy as np
 import scipy.optimize
 import scipy.spatial
 
+from arstream.memo import ContentMemo, content_key
 from arstream.solve_kernels import grid_nearest, point_grid, pose_from_params, project_points, refine_pose
 from geometry.camera import Camera, camera_at_centre, intrinsic_matrix
 from geometry.conics import ellipse_from_conic, intersect_line_conic, normalize_conic, split_degenerate_conics
@@ -259,6 +260,12 @@ def solve_from_circle(
     return sols
 
 
+#: :func:`cameras_along_circle`'s families of the last views asked for (a
+#: still's scan registers it at up to nine pitch sizes, a clip's scan tracks
+#: each frame at up to six, and a family does not depend on the pitch's size)
+_FAMILIES = ContentMemo(64)
+
+
 def cameras_along_circle(
     E,
     halfway_line,
@@ -336,6 +343,16 @@ def cameras_along_circle(
     radius = PitchModel()["centre_circle"].radius if radius is None else float(radius)
     arc = np.asarray(arc, dtype=np.float64).reshape(-1, 2)
     halfway = np.asarray(halfway, dtype=np.float64).reshape(-1, 2)
+    focals = np.asarray(focals, dtype=np.float64).ravel()
+    # (the same view's family asked for again: a scan registers a still, and
+    # its trackers a frame, at several pitch sizes, and the family does not
+    # depend on the size)
+    key = content_key(E, halfway_line, arc, halfway, principal_point, focals, (float(image_width), radius, float(offset), int(max_points), float(max_rms), int(polish)))
+    return _FAMILIES.answer(key, lambda: _cameras_along_circle(E, halfway_line, arc, halfway, principal_point, float(image_width), focals, radius, float(offset), max_points, max_rms, polish))
+
+
+def _cameras_along_circle(E, halfway_line, arc: np.ndarray, halfway: np.ndarray, principal_point, image_width: float, focals: np.ndarray, radius: float, offset: float, max_points: int, max_rms: float, polish: int) -> list[Camera]:
+    """:func:`cameras_along_circle`'s work, its arguments converted."""
     if len(arc) < 6 or len(halfway) < 2:
         raise ValueError(f"need at least 6 arc and 2 halfway-line pixels, got {len(arc)} and {len(halfway)}")
     offset = float(offset)
@@ -348,7 +365,6 @@ def cameras_along_circle(
     arc, halfway = arc[:: max(1, len(arc) // max_points)], halfway[:: max(1, len(halfway) // max_points)]
     A, B = np.column_stack([arc, np.ones(len(arc))]), np.column_stack([halfway, np.ones(len(halfway))])
     Cw = np.diag([1.0, 1.0, -radius * radius])
-    focals = np.asarray(focals, dtype=np.float64).ravel()
     fits: list[tuple[Camera, float] | None] = []
     for f in focals:
         best = None

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.spatial
 
 from geometry.camera import Camera, camera_near_homography, decompose_homographies, homographies_from_parallel_lines_batch, intrinsic_matrix
-from geometry.homography import homographies_from_lines
+from geometry.homography import homographies_from_four_points, homographies_from_lines, normalize_homographies
 from geometry.lines import normalize_line
 from geometry.pitch import PitchModel
 
@@ -319,6 +319,93 @@ def plausible(centre: np.ndarray, focal: np.ndarray, width: float, pitch: PitchM
         return (C[:, 1] < -hw - 3) & (C[:, 1] > -hw - 100) & (C[:, 2] > 3) & (C[:, 2] < 80) & (np.abs(C[:, 0]) < hl + 20) & (f > 0.3 * width) & (f < 12 * width)
 
 
+def _corner_homographies(L: np.ndarray, across, along, xs, ys, centre, scale: float, metres: float) -> tuple[np.ndarray, np.ndarray]:
+    """The homographies (pitch -> image) of every pairing of two image lines
+    of each direction with two model lines of each: lines ``across`` (pairs
+    of indices into L, (N, 3) pixels) on X = x0, x1 for each (x0, x1) of
+    ``xs``, lines ``along`` on Y = y0, y1 for each of ``ys``. The two lines
+    of each direction meet at four corners, the model's at the rectangle's
+    (x_i, y_j), so each is the closed-form homography of four points
+    (:func:`geometry.homography.homographies_from_four_points`), made in
+    frames of order one (the image about ``centre`` over ``scale`` pixels,
+    the pitch over ``metres``).
+
+    Returns
+    -------
+    (H (A * B * X * Y, 3, 3), ok): ordered by across pair, along pair, xs
+    pair, ys pair (the first slowest)
+    """
+    cx, cy = centre
+    Ln = L * np.array([scale, scale, 1.0])
+    Ln[:, 2] = L[:, 0] * cx + L[:, 1] * cy + L[:, 2]
+    ia, ib = np.array(across, dtype=np.int64).reshape(-1, 2), np.array(along, dtype=np.int64).reshape(-1, 2)
+    # image corners: (across a, along b) for (a, b) = (0, 0), (1, 0), (0, 1), (1, 1)
+    order = ((0, 0), (1, 0), (0, 1), (1, 1))
+    P = np.stack([np.cross(Ln[ia[:, a]][:, None, :], Ln[ib[:, b]][None, :, :]) for a, b in order], axis=2).reshape(-1, 4, 3)
+    X, Y = np.asarray(xs, float).reshape(-1, 2) / metres, np.asarray(ys, float).reshape(-1, 2) / metres
+    Q = np.stack([np.stack(np.broadcast_arrays(X[:, a][:, None], Y[:, b][None, :], 1.0), axis=-1) for a, b in order], axis=2).reshape(-1, 4, 3)
+    # corner bases once per pair of pairs, then every image one with every model one
+    n_img, n_mod = len(P), len(Q)
+    basis = np.tile(np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [1.0, 1, 1]]), (max(n_img, n_mod), 1, 1))
+    Hi, oki = homographies_from_four_points(basis[:n_img], P)  # basis -> image corners
+    Hm, okm = homographies_from_four_points(Q, basis[:n_mod])  # model corners -> basis
+    H = np.einsum("aij,bjk->abik", Hi, Hm).reshape(-1, 3, 3)
+    ok = (oki[:, None] & okm[None, :]).reshape(-1)
+    # back to pixels and metres
+    Ti = np.array([[scale, 0.0, cx], [0.0, scale, cy], [0.0, 0.0, 1.0]])
+    Tm = np.diag([1.0 / metres, 1.0 / metres, 1.0])
+    H = Ti @ H @ Tm
+    sv = np.linalg.svd(H, compute_uv=False)
+    ok &= sv[:, 2] >= 1e-12 * sv[:, 0]
+    H[~ok] = np.eye(3)
+    return normalize_homographies(H), ok
+
+
+def _guided(Hs: np.ndarray, L: np.ndarray, E: np.ndarray, across, along, m_across: np.ndarray, m_along: np.ndarray, reach: float) -> tuple[np.ndarray, list[int]]:
+    """Guided matching of hypotheses (pitch -> image homographies ``Hs``, (T, 3, 3),
+    none singular): each takes, for every image line of each direction
+    (indices ``across``, ``along`` into L, (N, 3), with segment ends E,
+    (N, 2, 2)), the model line of that direction (``m_across``, ``m_along``,
+    (M, 3) pitch lines) whose image under it passes within ``reach`` pixels
+    of both the segment's ends (the nearest), and is solved again from all
+    its correspondences (:func:`geometry.homography.homographies_from_lines`)
+    where there are more than four.
+
+    Returns
+    -------
+    (the new homographies (K, 3, 3), the index into Hs of each)
+    """
+    Hit = np.transpose(np.linalg.inv(Hs), (0, 2, 1))  # model line -> image line
+    src, fam = [], []
+    for ks, models in ((across, m_across), (along, m_along)):
+        if not len(ks) or not len(models):
+            continue
+        li = np.einsum("tij,mj->tmi", Hit, models)  # (T, M, 3) image lines
+        nrm = np.hypot(li[..., 0], li[..., 1])
+        for k in ks:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dd = np.max(np.abs(np.einsum("tmi,ei->tme", li[..., :2], E[k]) + li[..., 2:3]), axis=2) / nrm
+            dd = np.where(nrm >= 1e-12, dd, np.inf)
+            best = np.argmin(dd, axis=1)
+            hit = dd[np.arange(len(Hs)), best] < reach
+            src.append(np.where(hit[:, None], models[best], np.nan))
+            fam.append(k)
+    if not src:
+        return np.zeros((0, 3, 3)), []
+    S = np.stack(src, axis=1)  # (T, F, 3), NaN where the line took no model line
+    matched = ~np.isnan(S[..., 0])
+    count = matched.sum(axis=1)
+    out, idx = [], []
+    for n in sorted(set(count[count > 4].tolist())):
+        rows = np.flatnonzero(count == n)
+        src_l = S[rows][matched[rows]].reshape(len(rows), n, 3)
+        dst_l = np.broadcast_to(L[np.array(fam)], (len(rows), len(fam), 3))[matched[rows]].reshape(len(rows), n, 3)
+        H2, ok2 = homographies_from_lines(src_l, dst_l)
+        out.append(H2[ok2])
+        idx += rows[ok2].tolist()
+    return (np.concatenate(out) if out else np.zeros((0, 3, 3))), idx
+
+
 def cameras_from_line_pairs(
     lines,
     endpoints,
@@ -434,14 +521,11 @@ def cameras_from_line_pairs(
             ib = list(combinations(along, 2))
             ma = list(combinations(range(len(xs)), 2))
             mb = list(combinations(range(len(ys)), 2))
-            # every (image pair, model pair) of each direction: (K, 4, 3) lines
-            MA, MB = np.array(m_across), np.array(m_along)
-            ia_, ib_, ma_, mb_ = (np.array(x, dtype=np.int64).reshape(-1, 2) for x in (ia, ib, ma, mb))
-            g = np.stack(np.meshgrid(np.arange(len(ia_)), np.arange(len(ib_)), np.arange(len(ma_)), np.arange(len(mb_)), indexing="ij"), -1).reshape(-1, 4)
-            n += len(g)
-            src = np.concatenate([MA[ma_[g[:, 2]]], MB[mb_[g[:, 3]]]], axis=1)
-            dst = np.concatenate([L[ia_[g[:, 0]]], L[ib_[g[:, 1]]]], axis=1)
-            H4, ok4 = homographies_from_lines(src, dst)
+            # every (image pair, model pair) of each direction, in that order
+            # (image pairs slowest): two lines of each direction meet at four
+            # corners, the model's at a rectangle's (homographies_from_four_points)
+            H4, ok4 = _corner_homographies(L, ia, ib, [(xs[i], xs[j]) for i, j in ma], [(ys[i], ys[j]) for i, j in mb], c, W, hl)
+            n += len(H4)
             Hs, ok = np.concatenate([H4, Hs]), np.concatenate([ok4, ok])
         if not len(Hs):
             return LineHypotheses([], np.zeros(0), n, 0)
@@ -514,36 +598,10 @@ def cameras_from_line_pairs(
         # on a model line of its direction under them, and are solved again from
         # all those correspondences (more lines, a better homography)
         top = np.argsort(-scores)[:guided]
-        fam = [(k, m_across) for k in across] + [(k, m_along) for k in along]
-        reach = 0.012 * W
-        Hx, cand = [], []
-        for j in top:
-            Hj = Hg[j]
-            try:
-                Hit = np.linalg.inv(Hj).T  # model line -> image line
-            except np.linalg.LinAlgError:
-                continue
-            src_l, dst_l = [], []
-            for k, models in fam:
-                best_m, best_d = None, reach
-                for mline in models:
-                    li = Hit @ mline
-                    nrm = np.hypot(li[0], li[1])
-                    if nrm < 1e-12:
-                        continue
-                    dd = max(abs(li[:2] @ E[k, 0] + li[2]), abs(li[:2] @ E[k, 1] + li[2])) / nrm
-                    if dd < best_d:
-                        best_m, best_d = mline, dd
-                if best_m is not None:
-                    src_l.append(best_m)
-                    dst_l.append(L[k])
-            if len(src_l) > 4:
-                H2, ok2 = homographies_from_lines(np.array(src_l)[None], np.array(dst_l)[None])
-                if ok2[0]:
-                    Hx.append(H2[0])
-                    cand.append(j)
-        if Hx:
-            Hx = np.array(Hx)
+        top = top[np.abs(np.linalg.det(Hg[top])) > 0]
+        Hx, cand = _guided(Hg[top], L, E, across, along, np.array(m_across), np.array(m_along), 0.012 * W)
+        cand = [int(top[i]) for i in cand]
+        if len(Hx):
             p2 = decompose_homographies(Hx, principal_point)
             C2, f2 = p2.centre, p2.focal
             ok = p2.ok & plausible(C2, f2, W, pitch)

@@ -24,7 +24,9 @@ __all__ = [
     "homography_from_points",
     "homography_from_lines",
     "homographies_from_lines",
+    "homographies_from_four_points",
     "normalize_homography",
+    "normalize_homographies",
     "transfer_points",
     "transfer_lines",
     "transfer_conic",
@@ -46,11 +48,12 @@ def _check_h(H) -> np.ndarray:
 def normalize_homography(H) -> np.ndarray:
     """Scale (3, 3) ``H`` to unit Frobenius norm with ``H[2, 2] >= 0`` (sign of
     the largest entry when ``H[2, 2]`` is 0). Raises ``ValueError`` if singular."""
-    return _normalize_batch(_check_h(H)[None])[0]
+    return normalize_homographies(_check_h(H)[None])[0]
 
 
-def _normalize_batch(H: np.ndarray) -> np.ndarray:
-    """:func:`normalize_homography`'s scale and sign for K homographies (K, 3, 3)."""
+def normalize_homographies(H: np.ndarray) -> np.ndarray:
+    """:func:`normalize_homography`'s scale and sign for K homographies (K, 3, 3)
+    (none singular)."""
     H = H / np.linalg.norm(H, axis=(1, 2), keepdims=True)
     flat = H.reshape(len(H), 9)
     ref = np.where(np.abs(H[:, 2, 2]) > 1e-12, H[:, 2, 2], flat[np.arange(len(H)), np.argmax(np.abs(flat), axis=1)])
@@ -181,7 +184,57 @@ def homographies_from_lines(src_lines, dst_lines) -> tuple[np.ndarray, np.ndarra
     H = np.linalg.solve(Td, Hn @ Ts)
     h = np.linalg.svd(H, compute_uv=False)
     ok &= h[:, 2] >= 1e-12 * h[:, 0]
-    return _normalize_batch(H), ok
+    return normalize_homographies(H), ok
+
+
+def _projective_bases(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """M (K, 3, 3) with M e_i ~ p_i (i = 1..3) and M (1, 1, 1) ~ p_4 for K sets
+    of four homogeneous points (K, 4, 3): ``M = [p1 p2 p3] diag(l)``,
+    ``l = [p1 p2 p3]^-1 p4``; ok (K,) False where three of the four are
+    collinear (or two coincide) and M is the identity."""
+    P = P / np.linalg.norm(P, axis=2, keepdims=True)
+    A = np.transpose(P[:, :3], (0, 2, 1))  # columns p1 p2 p3
+    ok = np.all(np.isfinite(P), axis=(1, 2))
+    for i, j, k in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)):
+        with np.errstate(invalid="ignore"):
+            ok &= np.abs(np.einsum("ki,ki->k", P[:, i], np.cross(P[:, j], P[:, k]))) > 1e-10
+    A[~ok] = np.eye(3)
+    lam = np.linalg.solve(A, np.where(ok[:, None], P[:, 3], 1.0)[..., None])[..., 0]
+    return A * lam[:, None, :], ok
+
+
+def homographies_from_four_points(src, dst) -> tuple[np.ndarray, np.ndarray]:
+    """The homographies of K sets of exactly four point correspondences, in
+    closed form: each set of four points in general position is the image of
+    the projective basis (e1, e2, e3, (1, 1, 1)) under ``M = [p1 p2 p3]
+    diag(l)``, ``l = [p1 p2 p3]^-1 p4``, so ``H = M_dst M_src^-1``. Exact as
+    the DLT is for four correspondences, without its SVD per set (a line
+    initialiser's many assignment hypotheses: the corners of two lines of
+    each direction). Points may be at infinity; give coordinates of order
+    one (conditioned) for full precision.
+
+    Parameters
+    ----------
+    src, dst : (K, 4, 3) array_like, homogeneous points in the source and
+        destination frames
+
+    Returns
+    -------
+    (H (K, 3, 3) float64 ``H_dst_from_src`` (unit norm, ``H[2, 2] >= 0``),
+    ok (K,) bool): where ``ok`` is False three points of a set are
+    collinear (or two coincide) and ``H`` is meaningless.
+    """
+    S, D = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
+    if S.ndim != 3 or S.shape[1:] != (4, 3) or D.shape != S.shape:
+        raise ValueError(f"point arrays must both be (K, 4, 3), got {S.shape} and {D.shape}")
+    if len(S) == 0:
+        return np.zeros((0, 3, 3)), np.zeros(0, bool)
+    Ms, oks = _projective_bases(S)
+    Md, okd = _projective_bases(D)
+    H = Md @ np.linalg.inv(Ms)
+    ok = oks & okd
+    H[~ok] = np.eye(3)
+    return normalize_homographies(H), ok
 
 
 def homography_from_lines(src_lines, dst_lines) -> np.ndarray:

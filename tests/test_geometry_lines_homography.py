@@ -148,6 +148,37 @@ def test_batched_line_homographies_match_one_by_one():
     assert H0.shape == (0, 3, 3) and ok0.shape == (0,)
 
 
+def test_four_point_homographies_in_closed_form_match_the_dlt():
+    rng = np.random.default_rng(4)
+    src, dst, want = [], [], []
+    for _ in range(8):
+        H = random_homography(rng)
+        pts = rng.uniform(-1, 1, (4, 2))
+        src.append(np.column_stack([pts, np.ones(4)]))
+        dst.append(np.column_stack([gh.transfer_points(H, pts), np.ones(4)]) * rng.uniform(0.5, 2.0, (4, 1)))
+        want.append(gh.homography_from_points(pts, gh.transfer_points(H, pts)))
+    # a point at infinity (two lines parallel in the image meet there) is a point like any
+    H = random_homography(rng)
+    H[2] = [0.5, -0.25, -0.25]  # (1, 1) maps to infinity
+    src.append(np.column_stack([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], np.ones(4)]))
+    dst.append(np.einsum("ij,nj->ni", H, src[-1]))
+    assert dst[-1][3, 2] == 0.0
+    want.append(H / np.linalg.norm(H) * np.sign(H[2, 2]))
+    # degenerate members: three collinear points, and two coincident ones
+    src.append(np.array([[0.0, 0, 1], [1.0, 0, 1], [2.0, 0, 1], [0.0, 1, 1]]))
+    dst.append(src[-1].copy())
+    src.append(np.array([[0.0, 0, 1], [0.0, 0, 1], [1.0, 0, 1], [0.0, 1, 1]]))
+    dst.append(np.array([[0.0, 0, 1], [1.0, 0, 1], [1.0, 1, 1], [0.0, 1, 1]]))
+    Hg, ok = gh.homographies_from_four_points(np.array(src), np.array(dst))
+    assert ok.tolist() == [True] * 9 + [False, False]
+    assert np.allclose(Hg[:8], np.array(want[:8]), atol=1e-9)
+    assert np.allclose(Hg[8], want[8], atol=1e-12)
+    with pytest.raises(ValueError, match=r"\(K, 4, 3\)"):
+        gh.homographies_from_four_points(np.zeros((2, 5, 3)), np.zeros((2, 5, 3)))
+    H0, ok0 = gh.homographies_from_four_points(np.zeros((0, 4, 3)), np.zeros((0, 4, 3)))
+    assert H0.shape == (0, 3, 3) and ok0.shape == (0,)
+
+
 def test_homography_noise_is_bounded():
     rng = np.random.default_rng(1)
     H = random_homography(rng)

@@ -213,6 +213,38 @@ def test_cameras_from_line_pairs_find_a_penalty_area_view():
     assert best < 6.0, best
 
 
+def test_corner_homographies_are_the_line_dlt_s_of_every_pairing():
+    # two image lines of each direction against two model lines of each: the
+    # closed form of their four corners is the homography the line DLT gives
+    # on the same four lines, for every pairing, in the order of the pairs
+    from itertools import combinations
+
+    from arstream.solve_lines import _corner_homographies
+    from geometry.homography import homographies_from_lines
+
+    cam, img = _penalty_view()
+    H, W = img.shape[:2]
+    Hp = cam.K @ np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.t])  # pitch (Z = 0) -> image
+    xs, ys = [36.0, 47.0, 52.5], [-20.16, -9.16, 9.16, 20.16]
+    Hit = np.linalg.inv(Hp).T
+    L = np.array([Hit @ [1.0, 0, -x] for x in (36.0, 47.0, 52.5)] + [Hit @ [0, 1.0, -y] for y in (-20.16, 9.16)])
+    L /= np.linalg.norm(L[:, :2], axis=1, keepdims=True)
+    ia, ib = list(combinations(range(3), 2)), [(3, 4)]
+    ma, mb = list(combinations(xs, 2)), list(combinations(ys, 2))
+    Hc, ok = _corner_homographies(L, ia, ib, ma, mb, (W / 2, H / 2), W, 52.5)
+    src = [[[1.0, 0, -a[0]], [1.0, 0, -a[1]], [0, 1.0, -b[0]], [0, 1.0, -b[1]]] for _ in ia for _ in ib for a in ma for b in mb]
+    dst = [[L[i[0]], L[i[1]], L[j[0]], L[j[1]]] for i in ia for j in ib for _ in ma for _ in mb]
+    Hl, okl = homographies_from_lines(np.array(src), np.array(dst))
+    assert ok.all() and okl.all() and len(Hc) == 3 * 1 * 3 * 6
+    assert np.allclose(Hc, Hl, atol=1e-10)
+    # the right pairing is the camera's own
+    k = ((ia.index((0, 1)) * len(ib) + 0) * len(ma) + ma.index((36.0, 47.0))) * len(mb) + mb.index((-20.16, 9.16))
+    assert np.allclose(Hc[k], Hp / np.linalg.norm(Hp) * np.sign(Hp[2, 2]), atol=1e-9)
+    # a repeated image line meets the other direction's at one point twice: no homography
+    _, ok2 = _corner_homographies(np.vstack([L, L[:1]]), [(0, 5)], ib, ma[:1], mb[:1], (W / 2, H / 2), W, 52.5)
+    assert ok2.tolist() == [False]
+
+
 @pytest.mark.parametrize(
     "centre, focal, expect",
     [

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from arstream.imaging import pooled
+from arstream.memo import ContentMemo, content_key
 from geometry.conics import conic_from_ellipse, ellipse_from_conic, intersect_line_conic, normalize_conic, refine_ellipse, sampson_distance
 from geometry.lines import hartley_normalization
 
@@ -136,6 +137,13 @@ def grass_beside(lines: list[DetectedLine], image: np.ndarray, *, samples: int =
     return out
 
 
+#: the last frames' lines and penalty arcs (:func:`paint_lines`, :func:`paint_arcs`)
+#: by their masks' and frames' content: a scan asks for a frame's at each
+#: pitch size it tries (:mod:`arstream.memo`)
+_LINES = ContentMemo(16)
+_ARCS = ContentMemo(16)
+
+
 def paint_lines(mask: np.ndarray, image: np.ndarray | None = None, *, min_length: float | None = None, max_lines: int = 16, work_width: int = 1000) -> list[DetectedLine]:
     """Straight painted lines in a paint mask (:func:`paint_mask`).
 
@@ -160,6 +168,12 @@ def paint_lines(mask: np.ndarray, image: np.ndarray | None = None, *, min_length
     """
     if not isinstance(mask, np.ndarray) or mask.ndim != 2:
         raise ValueError(f"mask must be a 2-D array, got {getattr(mask, 'shape', type(mask).__name__)}")
+    key = content_key(mask, np.zeros(0) if image is None else image, (-1.0 if min_length is None else float(min_length), max_lines, work_width))
+    return _LINES.answer(key, lambda: _paint_lines(mask, image, min_length, max_lines, work_width))
+
+
+def _paint_lines(mask: np.ndarray, image: np.ndarray | None, min_length: float | None, max_lines: int, work_width: int) -> list[DetectedLine]:
+    """:func:`paint_lines`' work."""
     H, W = mask.shape
     f = max(1, int(np.ceil(W / work_width)))
     m = mask if f == 1 else pooled(mask, (W // f, H // f))
@@ -264,6 +278,12 @@ def paint_arcs(mask: np.ndarray, lines: list[DetectedLine], *, fronts: int = 6, 
     """
     if not isinstance(mask, np.ndarray) or mask.ndim != 2:
         raise ValueError(f"mask must be a 2-D array, got {getattr(mask, 'shape', type(mask).__name__)}")
+    key = content_key(mask, (fronts, max_arcs, min_chord, max_rise), *[x for dl in lines for x in (dl.line, dl.endpoints, dl.points, dl.length)])
+    return _ARCS.answer(key, lambda: _paint_arcs(mask, lines, fronts, max_arcs, min_chord, max_rise))
+
+
+def _paint_arcs(mask: np.ndarray, lines: list[DetectedLine], fronts: int, max_arcs: int, min_chord: float, max_rise: float) -> list[PaintArc]:
+    """:func:`paint_arcs`' work."""
     H, W = mask.shape
     ys, xs = np.nonzero(mask)
     if len(xs) < 20:
