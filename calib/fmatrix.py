@@ -59,7 +59,7 @@ import numpy as np
 import scipy.optimize
 
 from geometry.homography import homography_from_points, normalize_homography
-from geometry.lines import hartley_normalization
+from geometry.lines import hartley_normalization, skew
 
 __all__ = [
     "FundamentalResult",
@@ -184,10 +184,6 @@ def _as_F(F, name: str = "F") -> np.ndarray:
 
 def _hom(p: np.ndarray) -> np.ndarray:
     return np.column_stack([p, np.ones(len(p))])
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -553,7 +549,7 @@ def six_point(x1, x2, *, coplanar, method: str = "projective") -> FundamentalRes
 
     P1 = P2 = None
     if method == "epipolar":
-        Fn = _skew(_unit(e2)) @ Hn
+        Fn = skew(_unit(e2)) @ Hn
         H = np.linalg.solve(T2, Hn @ T1)
     else:
         Fn, P1n, P2n, Hc = _six_point_projective(Y1, Y2, cop, off)
@@ -759,8 +755,8 @@ def _rodrigues(w: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) of a rotation vector (3,)."""
     th = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     if th < 1e-12:
-        return np.eye(3) + _skew(w)
-    S = _skew(w / th)
+        return np.eye(3) + skew(w)
+    S = skew(w / th)
     return np.eye(3) + math.sin(th) * S + (1.0 - math.cos(th)) * (S @ S)
 
 
@@ -1153,14 +1149,6 @@ def _dlt_homography(Y1: np.ndarray, Y2: np.ndarray) -> np.ndarray:
     return H / np.linalg.norm(H)
 
 
-def _skew_batch(e: np.ndarray) -> np.ndarray:
-    S = np.zeros((len(e), 3, 3))
-    S[:, 0, 1], S[:, 0, 2] = -e[:, 2], e[:, 1]
-    S[:, 1, 0], S[:, 1, 2] = e[:, 2], -e[:, 0]
-    S[:, 2, 0], S[:, 2, 1] = -e[:, 1], e[:, 0]
-    return S
-
-
 _MIN_PLANE_FRACTION = 0.2
 
 _PLANAR_SCENE = (
@@ -1190,7 +1178,7 @@ def _plane_parallax(D: _Data, t: float, confidence: float, max_iterations: int, 
         e = np.cross(L[idx[:, 0]], L[idx[:, 1]])
         ne = np.linalg.norm(e, axis=1)
         e = e[ne > 1e-12] / ne[ne > 1e-12, None]
-        return _skew_batch(e) @ Hn
+        return skew(e) @ Hn
 
     lo8 = _lo_eight(D, t)
 
@@ -1200,7 +1188,7 @@ def _plane_parallax(D: _Data, t: float, confidence: float, max_iterations: int, 
             if inl.sum() < 3:
                 break
             _, _, Vt = np.linalg.svd(L[inl])
-            Fl = _skew(Vt[-1]) @ Hn
+            Fl = skew(Vt[-1]) @ Hn
             dl = D.d(Fl)
             cl = float(_cost(dl, t))
             if cl >= cost:

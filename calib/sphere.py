@@ -89,7 +89,7 @@ from geometry.conics import (
     sampson_distance,
 )
 from geometry.camera import K_from_iac
-from geometry.lines import hartley_normalization
+from geometry.lines import hartley_normalization, skew
 
 __all__ = [
     "SphereOutline",
@@ -331,10 +331,6 @@ def _omega_basis(model: str) -> list[np.ndarray]:
     return [S[0, 0], S[0, 1], S[1, 1], S[0, 2], S[1, 2], S[2, 2]]
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
 # --------------------------------------------------------------------------
 # forward model and the sphere from K and its outline
 # --------------------------------------------------------------------------
@@ -527,7 +523,7 @@ def _linear_omega(Cs: np.ndarray, model: str):
         c = Cs[i] @ x0
         c = c / np.linalg.norm(c)
         B = np.stack([b @ x0 for b in basis], axis=1)  # omega x0 = B p
-        rows.append(_skew(c) @ B)
+        rows.append(skew(c) @ B)
         x0s.append(x0)
     if not rows:
         return None, 0, np.zeros((0, 3)), None

@@ -33,6 +33,7 @@ import scipy.linalg
 from scipy.spatial.transform import Rotation
 
 from geometry.conics import normalize_conic
+from geometry.lines import skew
 
 __all__ = [
     "Camera",
@@ -490,23 +491,86 @@ def camera_near_homography(H_img_from_pitch, principal_point, XY, *, aspect: flo
     X3 = np.column_stack([XY, np.zeros(len(XY))])
     cx, cy = np.asarray(principal_point, dtype=np.float64)
     rv0 = Rotation.from_matrix(cam0.R).as_rotvec()
-
-    def camera(p):
-        R = Rotation.from_rotvec(p[:3]).as_matrix()
-        return Camera.trusted(intrinsic_matrix(math.exp(p[6]), cx, cy, aspect), R, -R @ p[3:6])
-
-    def residual(p):
-        return (camera(p).project(X3) - target).ravel()
-
+    fit = _HomographyCameraFit(X3, target, cx, cy, aspect)
     p0 = np.concatenate([rv0, cam0.center, [math.log(cam0.focal)]])
     with np.errstate(all="ignore"):
-        r0 = residual(p0)
+        r0 = fit.residuals(p0)
     if not np.all(np.isfinite(r0)):
         return cam0
-    sol = scipy.optimize.least_squares(residual, p0, method="lm", max_nfev=200)
+    with np.errstate(all="ignore"):
+        sol = scipy.optimize.least_squares(fit.residuals, p0, jac=fit.jacobian, method="lm", max_nfev=200)
     if not (np.all(np.isfinite(sol.x)) and sol.cost <= 0.5 * float(r0 @ r0)):
         return cam0
-    return camera(sol.x)
+    R = Rotation.from_rotvec(sol.x[:3]).as_matrix()
+    return Camera.trusted(intrinsic_matrix(math.exp(sol.x[6]), cx, cy, aspect), R, -R @ sol.x[3:6])
+
+
+def rotation_with_derivatives(rotvec) -> tuple[np.ndarray, np.ndarray]:
+    """The rotation matrix of a rotation vector and its derivatives.
+
+    Parameters
+    ----------
+    rotvec : (3,) rotation vector v (axis times angle, radians)
+
+    Returns
+    -------
+    (R (3, 3), dR (3, 3, 3)): ``dR[i] = dR / dv_i``, by the closed form of
+    Gallego and Yezzi (2015), ``(v_i [v]x + [v x (I - R) e_i]x) R / |v|^2``
+    (``[e_i]x`` at v = 0).
+
+    >>> R, dR = rotation_with_derivatives([0.1, -0.2, 0.3])
+    >>> e = 1e-6
+    >>> num = (Rotation.from_rotvec([0.1 + e, -0.2, 0.3]).as_matrix() - Rotation.from_rotvec([0.1 - e, -0.2, 0.3]).as_matrix()) / (2 * e)
+    >>> bool(np.allclose(dR[0], num, atol=1e-8))
+    True
+    """
+    v = np.asarray(rotvec, dtype=np.float64).reshape(3)
+    R = Rotation.from_rotvec(v).as_matrix()
+    n2 = float(v @ v)
+    E = np.eye(3)
+    if n2 < 1e-24:
+        return R, skew(E)
+    IR = E - R
+    dR = (v[:, None, None] * skew(v) + skew(np.cross(v, IR.T))) @ R / n2
+    return R, dR
+
+
+class _HomographyCameraFit:
+    """:func:`camera_near_homography`'s residuals (2N,: the pixels of the
+    pitch points ``X`` (N, 3) through the camera, less ``target`` (N, 2), u
+    and v of each point in turn) and their Jacobian (2N, 7) in ``p``: a
+    rotation vector (3,), the centre (3,) metres and the log focal length,
+    at the principal point (``cx``, ``cy``) and ``aspect``. The rotation's
+    derivative: :func:`rotation_with_derivatives`."""
+
+    def __init__(self, X: np.ndarray, target: np.ndarray, cx: float, cy: float, aspect: float):
+        self.X, self.target, self.cx, self.cy, self.aspect = X, target, cx, cy, aspect
+
+    def _camera_points(self, p):
+        R, dR = rotation_with_derivatives(p[:3])
+        D = self.X - p[3:6]  # (N, 3) from the centre
+        return R, dR, D, D @ R.T  # camera-frame points
+
+    def residuals(self, p) -> np.ndarray:
+        _, _, _, Xc = self._camera_points(p)
+        f = math.exp(p[6])
+        u = f * Xc[:, 0] / Xc[:, 2] + self.cx
+        v = self.aspect * f * Xc[:, 1] / Xc[:, 2] + self.cy
+        return (np.column_stack([u, v]) - self.target).ravel()
+
+    def jacobian(self, p) -> np.ndarray:
+        R, dR, D, Xc = self._camera_points(p)
+        f = math.exp(p[6])
+        a, b, c = Xc[:, 0], Xc[:, 1], Xc[:, 2]
+        dXc = np.empty((len(D), 6, 3))  # d(camera-frame point) / d(rotation vector, centre)
+        dXc[:, :3] = np.einsum("kij,nj->nki", dR, D)
+        dXc[:, 3:] = -R.T[None]  # (row k: d/dC_k, the column -R[:, k])
+        du = f * (dXc[..., 0] / c[:, None] - a[:, None] * dXc[..., 2] / (c * c)[:, None])
+        dv = self.aspect * f * (dXc[..., 1] / c[:, None] - b[:, None] * dXc[..., 2] / (c * c)[:, None])
+        J = np.empty((2 * len(D), 7))
+        J[0::2, :6], J[1::2, :6] = du, dv
+        J[0::2, 6], J[1::2, 6] = f * a / c, self.aspect * f * b / c
+        return J
 
 
 def camera_turned(camera: Camera, rotvec, dlogf: float, center, dist: tuple | None = None) -> Camera:

@@ -29,9 +29,35 @@ __all__ = [
     "to_homogeneous",
     "hartley_normalization",
     "from_homogeneous",
+    "skew",
 ]
 
 _EPS = 1e-12
+
+
+def skew(v) -> np.ndarray:
+    """The cross-product matrix ``[v]x`` of each 3-vector, ``[v]x u = v x u``
+    (for lines and points, the join and the meet as a matrix).
+
+    Parameters
+    ----------
+    v : (..., 3) array_like
+
+    Returns
+    -------
+    (..., 3, 3) float64
+
+    >>> bool(np.allclose(skew([1.0, 2.0, 3.0]) @ [4.0, 5.0, 6.0], np.cross([1.0, 2.0, 3.0], [4.0, 5.0, 6.0])))
+    True
+    """
+    v = np.asarray(v, dtype=np.float64)
+    if v.shape[-1:] != (3,):
+        raise ValueError(f"vectors must be (..., 3), got {v.shape}")
+    S = np.zeros(v.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
 
 
 @dataclass(frozen=True)

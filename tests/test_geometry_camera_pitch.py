@@ -267,3 +267,40 @@ def test_camera_at_centre_bad_input(args, message):
     cam = broadcast_camera(np.random.default_rng(0))
     with pytest.raises(ValueError, match=message):
         gcam.camera_at_centre(cam, *args(cam))
+
+
+@pytest.mark.parametrize("rotvec", [[0.1, -0.2, 0.3], [0.0, 0.0, 0.0], [2.9, 0.4, -1.1], [1e-9, 0.0, 0.0]])
+def test_rotation_derivatives_match_finite_differences(rotvec):
+    from scipy.spatial.transform import Rotation
+
+    R, dR = gcam.rotation_with_derivatives(rotvec)
+    assert np.allclose(R, Rotation.from_rotvec(rotvec).as_matrix(), atol=1e-15)
+    e = 1e-6
+    for i in range(3):
+        d = np.zeros(3)
+        d[i] = e
+        num = (Rotation.from_rotvec(np.add(rotvec, d)).as_matrix() - Rotation.from_rotvec(np.subtract(rotvec, d)).as_matrix()) / (2 * e)
+        # (central differences: error of order e^2 times the third derivative, and 1e-16 / e of rounding)
+        assert np.allclose(dR[i], num, atol=1e-8), i
+
+
+def test_camera_near_homography_s_jacobian_and_answer():
+    from geometry.camera import _HomographyCameraFit
+
+    rng = np.random.default_rng(7)
+    cam = gcam.camera_from_ptz(np.array([5.0, -60.0, 18.0]), gcam.PTZ(pan=0.3, tilt=0.25, roll=0.01, f=1500.0), (640.0, 360.0))
+    XY = rng.uniform([-20, -30], [30, 30], (50, 2))
+    X3 = np.column_stack([XY, np.zeros(50)])
+    fit = _HomographyCameraFit(X3, cam.project(X3) + rng.normal(0, 0.5, (50, 2)), 640.0, 360.0, 1.0)
+    p = np.concatenate([[0.2, -0.1, 0.05], [4.0, -58.0, 17.0], [np.log(1400.0)]])
+    J = fit.jacobian(p)
+    num = np.empty_like(J)
+    for k in range(7):
+        d = np.zeros(7)
+        d[k] = 1e-6
+        num[:, k] = (fit.residuals(p + d) - fit.residuals(p - d)) / 2e-6
+    assert np.allclose(J, num, rtol=1e-5, atol=1e-4 * np.abs(num).max())
+    # the camera of the homography of an exact camera is that camera
+    H = cam.K @ np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.t])
+    got = gcam.camera_near_homography(H / H[2, 2], (640.0, 360.0), XY)
+    assert np.allclose(got.center, cam.center, atol=1e-6) and abs(got.focal - 1500.0) < 1e-6
