@@ -258,6 +258,29 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float
     return PaintView(image, mask, np.column_stack([xs, ys]).astype(np.float64) * step, white_mask(image, reach=reach) if bright is None else bright, None if small is None else grass_region(small))
 
 
+class FrameViews:
+    """The latest frame's paint views (:func:`paint_view`), made once for the
+    trackers that are fed that frame (:class:`arstream.track.Tracker`'s
+    ``views``): a pitch-size scan tracks each frame at several sizes, and a
+    frame's paint does not depend on the size (its lines and arcs, found on
+    first access, neither). The trackers must be fed the same image and
+    detections under the same frame number; a new number drops the last
+    frame's views, as does another image under the same number (a source
+    started again)."""
+
+    def __init__(self):
+        self._frame: tuple | None = None
+        self._views: dict[int, PaintView] = {}
+
+    def view(self, frame: int, image: np.ndarray, detections, reach: int) -> PaintView:
+        """Frame ``frame``'s :func:`paint_view` (``image``, ``detections``, ``reach``)."""
+        if (frame, id(image), id(detections)) != self._frame:
+            self._frame, self._views = (frame, id(image), id(detections)), {}
+        if reach not in self._views:
+            self._views[reach] = paint_view(image, detections, reach=reach)
+        return self._views[reach]
+
+
 def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 

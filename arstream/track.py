@@ -55,7 +55,7 @@ from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
 from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
 from arstream.tripod import fit_tripod
-from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, still_paint_camera, view_supports
+from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, FrameViews, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, still_paint_camera, view_supports
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
 from arstream.solve_lines import plausible
 from arstream.support import ON_LINES, backed_support, backs, on_lines, white_mask
@@ -273,9 +273,12 @@ class Tracker:
     support_reach : int, the line-support test's tolerance (pixels of the
         frames given; 2 at the frame's own resolution, 1 on frames scaled to
         half of it, so that the test matches the 2 px of the frame that docs/evaluate.md defines)
+    views : :class:`arstream.initialise.FrameViews` shared with the other
+        trackers fed the same frames (a pitch-size scan's, one per size: a
+        frame's paint is the same at every size); None: its own
     """
 
-    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2, estimate_pitch: bool = False, watch_pitch: bool = False):
+    def __init__(self, width: int, height: int, *, fps: float = 25.0, lag: int = 0, pitch: PitchModel | None = None, principal_point=None, config: TrackerConfig | None = None, support_reach: int = 2, estimate_pitch: bool = False, watch_pitch: bool = False, views: FrameViews | None = None):
         if width <= 0 or height <= 0:
             raise ValueError(f"invalid frame size {width}x{height}")
         if lag < 0:
@@ -331,6 +334,7 @@ class Tracker:
         self._unsupported = 0  # consecutive frames whose camera the paint did not back
         self._supported_at = -(10**9)  # the last frame whose camera the paint backed
         self.support_reach = int(support_reach)
+        self.views = views if views is not None else FrameViews()
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
         self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
@@ -1032,7 +1036,7 @@ class Tracker:
 
     def _paint_view(self, index: int, image: np.ndarray, det):
         """The frame's paint view; its white-paint mask is the line-support test's."""
-        view = paint_view(image, det, reach=self.support_reach)
+        view = self.views.view(index, image, det, self.support_reach)
         self._keep_mask(index, view.bright)
         return view
 

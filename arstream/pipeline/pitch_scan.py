@@ -73,13 +73,15 @@ class SizeScanStage(Stage):
     name = "track"
 
     def __init__(self, analysis: Analysis, sizes, fps: float):
+        from arstream.initialise import FrameViews
         from arstream.track import Tracker, TrackerConfig
         from geometry.pitch import PitchModel
 
         self.analysis = analysis
         every = max(1, round(fps * SCAN_PAINT_SECONDS))
         cfg = TrackerConfig(paint_every=every, rival_every=every)
-        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg) for L, W in sizes]
+        views = FrameViews()  # (a frame's paint, made once for every size)
+        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg, views=views) for L, W in sizes]
         self.points = [marking_points(t.pitch) for t in self.trackers]
         #: per size, each frame's line support (docs/evaluate.md, on the frame at
         #: its own size; None: no camera)
