@@ -98,3 +98,20 @@ def test_paint_lines_and_arcs_asked_again_are_the_same():
     other = mask.copy()
     other[: other.shape[0] // 2] = 0
     assert len(paint_lines(other, img)) != len(lines) or any(not np.array_equal(a.line, b.line) for a, b in zip(paint_lines(other, img), lines))
+
+
+def test_a_scan_s_trackers_share_each_frame_s_paint_view():
+    from arstream.initialise import FrameViews
+
+    img = np.zeros((72, 128, 3), np.uint8)
+    img[:] = (40, 120, 50)
+    img[30:32, 10:110] = 230
+    views = FrameViews()
+    a = views.view(7, img, None, 2)
+    assert views.view(7, img, None, 2) is a  # a second tracker, the same frame
+    assert views.view(7, img, None, 1) is not a  # another reach is another view
+    assert views.view(8, img, None, 2) is not a  # the next frame
+    again = img.copy()
+    b = views.view(8, again, None, 2)
+    assert b is not a and views.view(8, again, None, 2) is b  # (another image under one number: a source started again)
+    assert np.array_equal(b.mask, a.mask) and np.array_equal(b.bright, a.bright)
