@@ -496,17 +496,40 @@ def test_a_given_size_is_not_scanned(tmp_path):
     assert s.pitch_text == "pitch 100.0 x 70.0 m (given)"
 
 
-def test_the_default_finds_an_odd_pitch(tmp_path):
+@pytest.fixture(scope="module")
+def odd_clip(tmp_path_factory):
+    """The clips these tests process with no size given, each made once per
+    module (and test worker) and only read: ``wide`` seed 0, FRAMES_ODD
+    frames, of a 100 x 68 m pitch (``"odd"``) and of a 105 x 68 m one
+    (``"default"``). Returns a function of that name -> (the clip's path,
+    the cameras file of its run told 105 x 68, that run's summary)."""
+    from arstream.pipeline import process
+    from arstream.synth import generate
+
+    made = {}
+
+    def clip(name: str = "odd"):
+        if name not in made:
+            folder = tmp_path_factory.mktemp(f"{name}-clip")
+            generate(folder / "clip", preset="wide", seed=0, frames=FRAMES_ODD, **({"pitch": (100.0, 68.0)} if name == "odd" else {}))
+            fixed = folder / "fixed.jsonl"
+            summary = process(folder / "clip" / "clip.mp4", cameras_out=fixed, pitch=(105, 68), handle_signals=False)
+            made[name] = (folder / "clip" / "clip.mp4", fixed, summary)
+        return made[name]
+
+    return clip
+
+
+def test_the_default_finds_an_odd_pitch(tmp_path, odd_clip):
     # a synthetic clip of a 100 x 68 m pitch processed with no size given: its
     # markings fit 105 x 68 poorly, the scan finds 100 x 68, and the second
     # run (its size estimated from there) writes the outputs
     from arstream.evaluate import score_files
     from arstream.pipeline import process
-    from arstream.synth import generate
 
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
+    clip, fixed, f = odd_clip()
     cams = tmp_path / "cams.jsonl"
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    s = process(clip, cameras_out=cams, handle_signals=False)
     assert s.pitch["source"] in ("scanned", "estimated"), s.pitch_text
     scan = s.pitch["scan"]
     assert scan["sizes"][scan["chosen"]] == [100.0, 68.0] and scan["frames"] == FRAMES_ODD, s.pitch_text
@@ -515,9 +538,7 @@ def test_the_default_finds_an_odd_pitch(tmp_path):
     assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
     # against the truth, the cameras are far better than those at 105 x 68
     # (each judged on its own pitch's markings: where it draws the painted lines)
-    fixed = tmp_path / "fixed.jsonl"
-    f = process(tmp_path / "clip" / "clip.mp4", cameras_out=fixed, pitch=(105, 68), handle_signals=False)
-    truth = tmp_path / "clip" / "truth.jsonl"
+    truth = clip.parent / "truth.jsonl"
     sc, sc_fixed = score_files(truth, cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"])), score_files(truth, fixed, pred_pitch=PitchModel())
     assert sc.coverage >= 0.95 and sc.median < 0.5 * sc_fixed.median, (sc, sc_fixed)
     # the second run adopts its estimate once it has its views; every frame of
@@ -525,26 +546,24 @@ def test_the_default_finds_an_odd_pitch(tmp_path):
     # that size (to the summary's millimetre) would track them
     assert s.pitch["source"] == "estimated" and (s.pitch["length"], s.pitch["width"]) != (100.0, 68.0), s.pitch_text
     given = tmp_path / "given.jsonl"
-    process(tmp_path / "clip" / "clip.mp4", cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
     # the summary's times are all the runs' (the first, the scan's, the second, the last)
     assert s.seconds > 3 * f.seconds and s.cpu_seconds > 3 * f.cpu_seconds
 
 
-def test_the_first_run_s_views_estimate_the_size_without_tracking_at_it(tmp_path, monkeypatch):
+def test_the_first_run_s_views_estimate_the_size_without_tracking_at_it(tmp_path, monkeypatch, odd_clip):
     # the 100 x 68 m clip with no size given: the first run tracks at 105 x 68
     # exactly as a run told 105 x 68, and its views (made at 105 x 68) estimate
     # the length that needs_scan is asked about (the scan itself held off here)
     import arstream.pitch_size as pitch_size
     from arstream.pipeline import process
-    from arstream.synth import generate
 
+    clip, told, _ = odd_clip()  # (told: its run told 105 x 68)
     asked = []
     monkeypatch.setattr(pitch_size, "needs_scan", lambda supports, min_frames, seen=None: asked.append(seen) or False)
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
-    cams, told = tmp_path / "cams.jsonl", tmp_path / "told.jsonl"
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
-    process(tmp_path / "clip" / "clip.mp4", cameras_out=told, pitch=(105, 68), handle_signals=False)
+    cams = tmp_path / "cams.jsonl"
+    s = process(clip, cameras_out=cams, handle_signals=False)
     assert cams.read_bytes() == told.read_bytes()
     assert s.pitch["source"] == "default" and "scan" not in s.pitch, s.pitch_text
     (seen,) = asked
@@ -553,19 +572,18 @@ def test_the_first_run_s_views_estimate_the_size_without_tracking_at_it(tmp_path
     assert abs(seen.length - 100.0) < 1.5 and not seen.within_noise((105.0, 68.0)), seen
 
 
-def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, monkeypatch):
+def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, monkeypatch, odd_clip):
     # the 100 x 68 m clip, its scan held to sizes that fit it worse than 105 x 68
     # (110 x 68, 105 x 72): no grid size wins. The size estimated from the
     # default's own views is then tracked on the scan's frames and, backed by
     # the paint better than the default, kept; a last run tracks the clip at it.
     from arstream.evaluate import score_files
     from arstream.pipeline import process
-    from arstream.synth import generate
 
+    clip, _, _ = odd_clip()
     _hold_grid(monkeypatch)
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
     cams = tmp_path / "cams.jsonl"
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    s = process(clip, cameras_out=cams, handle_signals=False)
     scan = s.pitch["scan"]
     assert s.pitch["source"] == "estimated" and scan["sizes"][:3] == [[105.0, 68.0], [110.0, 68.0], [105.0, 72.0]], s.pitch_text
     assert scan["chosen"] == 3 and scan["sizes"][3] == pytest.approx([s.pitch["length"], s.pitch["width"]], abs=5e-4), s.pitch_text
@@ -575,39 +593,36 @@ def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, mo
     assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
     # the outputs are a run's at the estimate, every frame
     given = tmp_path / "given.jsonl"
-    process(tmp_path / "clip" / "clip.mp4", cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
-    sc = score_files(tmp_path / "clip" / "truth.jsonl", cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
+    sc = score_files(clip.parent / "truth.jsonl", cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
     assert sc.coverage >= 0.95 and sc.median < 1.0, sc
 
 
-def test_an_estimate_the_paint_does_not_back_better_is_not_kept(tmp_path, monkeypatch):
+def test_an_estimate_the_paint_does_not_back_better_is_not_kept(tmp_path, monkeypatch, odd_clip):
     # a 105 x 68 m clip scanned anyway: no grid size wins, the default's estimate
     # lies within the noise of 105 x 68, and the first run's outputs stay
     import arstream.pitch_size as pitch_size
     from arstream.pipeline import process
-    from arstream.synth import generate
 
+    clip, first, _ = odd_clip("default")  # (first: its run told 105 x 68)
     monkeypatch.setattr(pitch_size, "needs_scan", lambda *a, **k: True)
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD)
-    first = tmp_path / "first.jsonl"
-    process(tmp_path / "clip" / "clip.mp4", cameras_out=first, pitch=(105, 68), handle_signals=False)
     cams = tmp_path / "cams.jsonl"
-    s = process(tmp_path / "clip" / "clip.mp4", cameras_out=cams, handle_signals=False)
+    s = process(clip, cameras_out=cams, handle_signals=False)
     assert s.pitch["source"] == "default" and (s.pitch["length"], s.pitch["width"]) == (105.0, 68.0), s.pitch_text
     assert s.pitch["scan"]["chosen"] == 0 and s.pitch_text.startswith("pitch 105.0 x 68.0 m (default; kept by line support"), s.pitch_text
     assert cams.read_bytes() == first.read_bytes()
 
 
 @pytest.mark.parametrize("stop_in", [3, 5], ids=["during-the-estimate", "during-the-last-run"])
-def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_path, monkeypatch, stop_in):
+def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_path, monkeypatch, stop_in, odd_clip):
     # the scan held as above (one pass, the 2nd over the clip); SIGINT in the
     # estimate's run (the 3rd) or in the last run at it (the 5th, after the
     # check's 4th): the first run's complete outputs stay, and its summary
     import signal
 
     _hold_grid(monkeypatch)
-    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in)
+    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in, odd_clip)
     s = e.summary
     assert len(passes) == stop_in and s.interrupted == signal.SIGINT
     assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
@@ -622,21 +637,17 @@ def _hold_grid(monkeypatch):
     monkeypatch.setattr(pitch_scan, "grid_neighbours", lambda size: [(110.0, 68.0), (105.0, 72.0)] if tuple(size) == (105.0, 68.0) else [])
 
 
-def _interrupted_in_pass(tmp_path, stop_in):
-    """A 100 x 68 m synthetic clip processed with no size given, SIGINT sent at
-    frame 5 of its ``stop_in``-th pass over the clip: (the Interrupted, the
-    passes begun, the run's cameras file (beside ``o.mp4``), the cameras file
-    of a run at 105 x 68)."""
+def _interrupted_in_pass(tmp_path, stop_in, odd_clip):
+    """The 100 x 68 m synthetic clip (the ``odd_clip`` fixture) processed with
+    no size given, SIGINT sent at frame 5 of its ``stop_in``-th pass over the
+    clip: (the Interrupted, the passes begun, the run's cameras file (beside
+    ``o.mp4``), the cameras file of a run at 105 x 68)."""
     import os
     import signal
 
     from arstream.pipeline import Interrupted, process
-    from arstream.synth import generate
 
-    generate(tmp_path / "clip", preset="wide", seed=0, frames=FRAMES_ODD, pitch=(100.0, 68.0))
-    clip = tmp_path / "clip" / "clip.mp4"
-    fixed = tmp_path / "fixed.jsonl"
-    process(clip, cameras_out=fixed, pitch=(105, 68), handle_signals=False)
+    clip, fixed, _ = odd_clip()
     passes = []
 
     def progress(done, total):
@@ -689,14 +700,14 @@ FRAMES_ODD = 30
 
 
 @pytest.mark.parametrize("stop_in", [2, 4, 5], ids=["during-the-scan", "during-the-second-run", "during-the-last-run"])
-def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in):
+def test_ctrl_c_after_the_first_run_keeps_its_complete_outputs(tmp_path, stop_in, odd_clip):
     # SIGINT while the scan (the 2nd and 3rd passes over the clip) or the second
     # run (the 4th) goes on: Interrupted carries the first run's summary, and
     # its outputs, complete, are what is on disk (nothing of the second run's);
     # during the last run (the 5th, at the second's estimate), the second's
     import signal
 
-    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in)
+    e, passes, cams, fixed = _interrupted_in_pass(tmp_path, stop_in, odd_clip)
     s = e.summary
     out = cams.parent / "o.mp4"
     assert len(passes) == stop_in
