@@ -20,11 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.sparse import lil_matrix
+from scipy.sparse import csr_matrix, lil_matrix
 
 from arstream.solve import ModelSamples
-from arstream.solve_kernels import project_points
-from geometry.camera import Camera, camera_turned
+from arstream.solve_kernels import marking_residuals, project_points
+from geometry.camera import Camera, camera_turned, rotation_with_derivatives
+from geometry.lines import unskew
 from geometry.pitch import PitchModel
 
 __all__ = ["TripodFit", "fit_tripod"]
@@ -82,6 +83,93 @@ def _project(cam: Camera, X: np.ndarray, size) -> np.ndarray:
     px, _ = project_points(c(X, np.float64), c(cam.R, np.float64), c(cam.t, np.float64), c(cam.K, np.float64), np.asarray(cam.dist, np.float64), int(size[0]), int(size[1]), -1e6, 0.1)
     return px
 
+
+
+class _TripodProblem:
+    """:func:`fit_tripod`'s residuals for one round's associations
+    (``matches``, one :class:`_Matches` per view) and their Jacobian.
+
+    The residuals: each view's matched samples' distances (px) along the
+    projected markings' normals from their paint pixels (50 px where a
+    sample gets no pixel), then the size prior's rows.
+
+    The Jacobian in closed form, for views with square pixels and no skew:
+    each view's rows from :func:`arstream.solve_kernels.marking_residuals`
+    (a residual's derivatives by a left rotation perturbation, the centre,
+    log f and k1 at the view's camera), carried to the fit's parameters: the
+    rotation vector ``w`` of ``R = exp(w) R0`` through ``dR / dw_i =
+    [delta_i]x R`` (:func:`geometry.camera.rotation_with_derivatives`),
+    ``k1 = kappa / f`` (d/d log f loses ``k1`` times the k1 column, and
+    d/d kappa is that column over f), and the size offsets as the samples'
+    move (``-dr/dC`` along ``dL`` or ``dW``). A sample with no pixel has
+    zero rows. Sparse (the solver's trust-region steps by LSMR, as with
+    finite differences and their sparsity)."""
+
+    def __init__(self, matches, cameras, indices, sizes, f0, unpack, size0, ns: int, free, lens: bool, prior_sd):
+        self.matches, self.cameras, self.indices, self.sizes, self.f0, self.unpack, self.size0 = matches, cameras, indices, sizes, f0, unpack, size0
+        self.ns, self.free, self.lens, self.prior_sd = ns, free, lens, prior_sd
+
+    def _camera(self, x: np.ndarray, j: int) -> Camera:
+        C, _, _, kappa = self.unpack(x)
+        ns = self.ns
+        return _camera(self.cameras[self.indices[j]], x[ns + 4 * j : ns + 4 * j + 3], self.f0[j], x[ns + 4 * j + 3], C, kappa)
+
+    def _points(self, x: np.ndarray, m: _Matches) -> np.ndarray:
+        _, L, W, _ = self.unpack(x)
+        L0, W0 = self.size0
+        return np.ascontiguousarray(m.X + m.dL * (L - L0) + m.dW * (W - W0))
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        out = []
+        for j, m in enumerate(self.matches):
+            p = _project(self._camera(x, j), self._points(x, m), self.sizes[self.indices[j]])
+            r = np.einsum("ij,ij->i", m.n, p - m.q)
+            out.append(np.where(np.isfinite(r), r, 50.0))
+        _, L, W, _ = self.unpack(x)
+        L0, W0 = self.size0
+        off = [v for d, v in enumerate((L - L0, W - W0)) if self.free[d]]
+        out.append(np.array([o / sd for o, sd in zip(off, self.prior_sd)], np.float64))
+        return np.concatenate(out)
+
+    def jacobian(self, x: np.ndarray) -> csr_matrix:
+        ns = self.ns
+        C = np.ascontiguousarray(self.unpack(x)[0], np.float64)
+        data, rows, cols = [], [], []
+        row = 0
+        for j, m in enumerate(self.matches):
+            w = x[ns + 4 * j : ns + 4 * j + 3]
+            cam = self._camera(x, j)
+            P = self._points(x, m)
+            Rc, K = np.ascontiguousarray(cam.R), cam.K
+            f, k1 = float(K[0, 0]), (float(cam.dist[0]) if cam.dist else 0.0)
+            _, G = marking_residuals(P, np.ascontiguousarray(m.q, np.float64), np.ascontiguousarray(m.n, np.float64), Rc, C, f, float(K[0, 2]), float(K[1, 2]), k1)
+            R, dR = rotation_with_derivatives(w)
+            D = unskew(dR @ R.T).T  # (column i: the left perturbation d/dw_i makes, [delta_i]x = dR_i R^T)
+            B = np.zeros((len(P), ns + 4))
+            B[:, :3] = G[:, 3:6]
+            k = 3
+            for d, dX in ((0, m.dL), (1, m.dW)):
+                if self.free[d]:
+                    B[:, k] = -np.einsum("ij,ij->i", G[:, 3:6], dX)
+                    k += 1
+            if self.lens:
+                B[:, ns - 1] = G[:, 7] / f
+            B[:, ns : ns + 3] = G[:, :3] @ D
+            B[:, ns + 3] = G[:, 6] - (k1 * G[:, 7] if self.lens else 0.0)
+            # (a point with no pixel has the constant residual)
+            px = _project(cam, P, (1, 1))
+            B[~np.isfinite(px[:, 0])] = 0.0
+            c = np.r_[np.arange(ns), ns + 4 * j + np.arange(4)]
+            data.append(B.ravel())
+            rows.append(np.repeat(row + np.arange(len(P)), ns + 4))
+            cols.append(np.tile(c, len(P)))
+            row += len(P)
+        for k, sd in enumerate(self.prior_sd):
+            data.append(np.array([1.0 / sd]))
+            rows.append(np.array([row + k]))
+            cols.append(np.array([3 + k]))
+        shape = (row + len(self.prior_sd), ns + 4 * len(self.matches))
+        return csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
 
 
 def fit_tripod(
@@ -158,6 +246,10 @@ def fit_tripod(
     nv = len(indices)
     f0 = [np.log(cameras[i].focal) for i in indices]
     nfree = int(free[0]) + int(free[1])
+    # square pixels with no skew (the tracker's and the size estimate's frames):
+    # the Jacobian in closed form (solve_kernels.marking_residuals); else by
+    # finite differences
+    square = all(cameras[i].K[0, 0] == cameras[i].K[1, 1] and cameras[i].K[0, 1] == 0.0 for i in indices)
     # a zoom lens's k1 goes as 1 / f: one k1 f for all views, when they have a lens term
     lens = any(cameras[i].dist for i in indices)
     ns = 3 + nfree + int(lens)
@@ -187,11 +279,6 @@ def fit_tripod(
 
     prior_sd = [sd for d, sd in enumerate(size_prior_sd) if free[d]] if size_prior_sd is not None else []
 
-    def prior_rows(L, W):
-        """The prior's residuals, px (one per free dimension; none without a prior)."""
-        off = [v for d, v in enumerate((L - L0, W - W0)) if free[d]]
-        return np.array([o / s for o, s in zip(off, prior_sd)], np.float64)
-
     matches = None
     res = None
     for radius in radii:
@@ -218,25 +305,19 @@ def fit_tripod(
             raise ValueError("too few marking points matched to the views' paint")
         n_data = sum(counts)
 
-        def fun(x):
-            C, L, W, kappa = unpack(x)
-            out = []
-            for j, m in enumerate(matches):
-                cam = _camera(cameras[indices[j]], x[ns + 4 * j : ns + 4 * j + 3], f0[j], x[ns + 4 * j + 3], C, kappa)
-                p = _project(cam, m.X + m.dL * (L - L0) + m.dW * (W - W0), sizes[indices[j]])
-                r = np.einsum("ij,ij->i", m.n, p - m.q)
-                out.append(np.where(np.isfinite(r), r, 50.0))
-            out.append(prior_rows(L, W))
-            return np.concatenate(out)
-
-        S = lil_matrix((n_data + len(prior_rows(L0, W0)), len(x)), dtype=np.int8)
-        S[n_data:, 3 : 3 + nfree] = 1
-        row = 0
-        for j, n in enumerate(counts):
-            S[row : row + n, :ns] = 1
-            S[row : row + n, ns + 4 * j : ns + 4 * j + 4] = 1
-            row += n
-        res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
+        problem = _TripodProblem(matches, cameras, indices, sizes, f0, unpack, (L0, W0), ns, free, lens, prior_sd)
+        fun = problem.residuals
+        if square:
+            res = least_squares(fun, x, jac=problem.jacobian, tr_solver="lsmr", loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
+        else:
+            S = lil_matrix((n_data + len(prior_sd), len(x)), dtype=np.int8)
+            S[n_data:, 3 : 3 + nfree] = 1
+            row = 0
+            for j, n in enumerate(counts):
+                S[row : row + n, :ns] = 1
+                S[row : row + n, ns + 4 * j : ns + 4 * j + 4] = 1
+                row += n
+            res = least_squares(fun, x, jac_sparsity=S, loss="soft_l1", f_scale=1.0, x_scale="jac", max_nfev=60)
         x = res.x
     r = res.fun[:n_data]
     inl = np.abs(r) < 2.5

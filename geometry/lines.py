@@ -30,6 +30,7 @@ __all__ = [
     "hartley_normalization",
     "from_homogeneous",
     "skew",
+    "unskew",
 ]
 
 _EPS = 1e-12
@@ -58,6 +59,27 @@ def skew(v) -> np.ndarray:
     S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
     S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
     return S
+
+
+def unskew(S) -> np.ndarray:
+    """The 3-vector of each cross-product matrix (the inverse of :func:`skew`;
+    of a matrix not quite skew, its skew part's).
+
+    Parameters
+    ----------
+    S : (..., 3, 3) array_like
+
+    Returns
+    -------
+    (..., 3) float64
+
+    >>> unskew(skew([1.0, 2.0, 3.0])).tolist()
+    [1.0, 2.0, 3.0]
+    """
+    S = np.asarray(S, dtype=np.float64)
+    if S.shape[-2:] != (3, 3):
+        raise ValueError(f"matrices must be (..., 3, 3), got {S.shape}")
+    return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]], axis=-1)
 
 
 @dataclass(frozen=True)

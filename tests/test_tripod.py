@@ -107,3 +107,41 @@ def test_a_size_prior_gives_way_to_a_view_that_fixes_the_size():
     assert abs(fit.length - odd.length) < 0.05 and abs(fit.width - odd.width) < 0.05, (fit.length, fit.width)
     assert np.linalg.norm(fit.centre - truth.center) < 0.05
     assert all(sd < 1.5 for sd in fit.size_sd)
+
+
+@pytest.mark.parametrize("lens, free, prior", [(False, (False, False), None), (True, (True, True), (3.0, 3.0)), (True, (False, True), None)])
+def test_the_jacobian_is_the_residuals_derivative(monkeypatch, lens, free, prior):
+    # the closed-form Jacobian fit_tripod hands its solver, against central
+    # differences of the residuals it hands it, at the start and at points
+    # off it in every parameter (two turned views, a radial lens, the size
+    # free or not). Steps of 1e-6 of each parameter (at least 1e-6) leave
+    # about 2e-7 px of rounding and truncation in entries of up to 4e3 px
+    # per unit: held to 1e-8 of the largest
+    import arstream.tripod as tripod
+    from arstream.pitch_size import size_derivatives
+
+    seen = []
+    real = tripod.least_squares
+
+    def spy(fun, x0, **kw):
+        if callable(kw.get("jac")) and not seen:
+            seen.append((fun, kw["jac"], x0.copy()))
+        return real(fun, x0, **kw)
+
+    monkeypatch.setattr(tripod, "least_squares", spy)
+    views = [seated(c, TRUTH + (0.5, -1.0, 0.3), MODEL, SIZE) for c in (FIRST, TURNED)]
+    if lens:
+        views = [type(c)(K=c.K, R=c.R, t=c.t, dist=(-0.2 * SIZE[0] / c.focal,)) for c in views]
+    extra = dict(derivatives=size_derivatives(PITCH, MODEL), free=free) if any(free) else {}
+    fit_tripod(views, [_paint(FIRST), _paint(TURNED)], [SIZE, SIZE], MODEL, views[0].center, PITCH, size_prior_sd=prior, **extra)
+    ((fun, jac, x0),) = seen
+    rng = np.random.default_rng(1)
+    for x in (x0, x0 + rng.normal(0.0, 1e-3, len(x0))):
+        J = jac(x).toarray()
+        num = np.empty_like(J)
+        for k in range(len(x)):
+            e = np.zeros(len(x))
+            e[k] = 1e-6 * max(1.0, abs(x[k]))
+            num[:, k] = (fun(x + e) - fun(x - e)) / (2 * e[k])
+        assert J.shape == num.shape and np.abs(J).max() > 1.0
+        assert np.abs(J - num).max() < 1e-8 * np.abs(num).max(), (np.abs(J - num).max(), np.abs(num).max())
