@@ -108,21 +108,26 @@ class _TripodProblem:
     def __init__(self, matches, cameras, indices, sizes, f0, unpack, size0, ns: int, free, lens: bool, prior_sd):
         self.matches, self.cameras, self.indices, self.sizes, self.f0, self.unpack, self.size0 = matches, cameras, indices, sizes, f0, unpack, size0
         self.ns, self.free, self.lens, self.prior_sd = ns, free, lens, prior_sd
+        self._last: tuple | None = None  # (x, its _parts): the solver asks for both at one x
 
-    def _camera(self, x: np.ndarray, j: int) -> Camera:
-        C, _, _, kappa = self.unpack(x)
-        ns = self.ns
-        return _camera(self.cameras[self.indices[j]], x[ns + 4 * j : ns + 4 * j + 3], self.f0[j], x[ns + 4 * j + 3], C, kappa)
-
-    def _points(self, x: np.ndarray, m: _Matches) -> np.ndarray:
-        _, L, W, _ = self.unpack(x)
-        L0, W0 = self.size0
-        return np.ascontiguousarray(m.X + m.dL * (L - L0) + m.dW * (W - W0))
+    def _parts(self, x: np.ndarray) -> tuple[list, list, list]:
+        """Per view at ``x``: its camera, its matched samples (the size
+        applied) and their pixels (NaN where none)."""
+        key = x.tobytes()
+        if self._last is None or self._last[0] != key:
+            C, L, W, kappa = self.unpack(x)
+            L0, W0 = self.size0
+            ns = self.ns
+            cams = [_camera(self.cameras[i], x[ns + 4 * j : ns + 4 * j + 3], self.f0[j], x[ns + 4 * j + 3], C, kappa) for j, i in enumerate(self.indices)]
+            pts = [np.ascontiguousarray(m.X + m.dL * (L - L0) + m.dW * (W - W0)) for m in self.matches]
+            px = [_project(c, P, self.sizes[i]) for c, P, i in zip(cams, pts, self.indices)]
+            self._last = (key, (cams, pts, px))
+        return self._last[1]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
+        _, _, px = self._parts(x)
         out = []
-        for j, m in enumerate(self.matches):
-            p = _project(self._camera(x, j), self._points(x, m), self.sizes[self.indices[j]])
+        for m, p in zip(self.matches, px):
             r = np.einsum("ij,ij->i", m.n, p - m.q)
             out.append(np.where(np.isfinite(r), r, 50.0))
         _, L, W, _ = self.unpack(x)
@@ -134,12 +139,11 @@ class _TripodProblem:
     def jacobian(self, x: np.ndarray) -> csr_matrix:
         ns = self.ns
         C = np.ascontiguousarray(self.unpack(x)[0], np.float64)
+        cams, pts, px = self._parts(x)
         data, rows, cols = [], [], []
         row = 0
-        for j, m in enumerate(self.matches):
+        for j, (m, cam, P, p) in enumerate(zip(self.matches, cams, pts, px)):
             w = x[ns + 4 * j : ns + 4 * j + 3]
-            cam = self._camera(x, j)
-            P = self._points(x, m)
             Rc, K = np.ascontiguousarray(cam.R), cam.K
             f, k1 = float(K[0, 0]), (float(cam.dist[0]) if cam.dist else 0.0)
             _, G = marking_residuals(P, np.ascontiguousarray(m.q, np.float64), np.ascontiguousarray(m.n, np.float64), Rc, C, f, float(K[0, 2]), float(K[1, 2]), k1)
@@ -156,9 +160,7 @@ class _TripodProblem:
                 B[:, ns - 1] = G[:, 7] / f
             B[:, ns : ns + 3] = G[:, :3] @ D
             B[:, ns + 3] = G[:, 6] - (k1 * G[:, 7] if self.lens else 0.0)
-            # (a point with no pixel has the constant residual)
-            px = _project(cam, P, (1, 1))
-            B[~np.isfinite(px[:, 0])] = 0.0
+            B[~np.isfinite(p[:, 0])] = 0.0  # (a point with no pixel has the constant residual)
             c = np.r_[np.arange(ns), ns + 4 * j + np.arange(4)]
             data.append(B.ravel())
             rows.append(np.repeat(row + np.arange(len(P)), ns + 4))

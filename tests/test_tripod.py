@@ -37,6 +37,17 @@ def _paint(cam):
     return LineIndex(px[ok])
 
 
+def _assert_exact(fit, truths):
+    """A fit to exact paint found the truth to the arithmetic's floor, far
+    below a millimetre: the centre, and each view's picture of the markings."""
+    assert np.linalg.norm(fit.centre - TRUTH) < 1e-3, fit.centre
+    X = _markings()
+    for got, truth in zip(fit.cameras, truths, strict=True):
+        px, ok = _in_view(truth, X)
+        assert np.abs(got.project(X[ok]) - px[ok]).max() < 0.01
+        assert np.allclose(got.center, fit.centre)
+
+
 @pytest.mark.parametrize("along", [2.0, -3.0])
 def test_two_views_started_off_along_the_first_views_axis_find_the_centre(along):
     # started metres out along the long lens's line of sight (where its focal
@@ -44,13 +55,7 @@ def test_two_views_started_off_along_the_first_views_axis_find_the_centre(along)
     start = TRUTH + along * FIRST.R[2]
     views = [seated(c, start, MODEL, SIZE) for c in (FIRST, TURNED)]
     fit = fit_tripod(views, [_paint(FIRST), _paint(TURNED)], [SIZE, SIZE], MODEL, start, PITCH)
-    # exact paint: the arithmetic's floor, far below a millimetre
-    assert np.linalg.norm(fit.centre - TRUTH) < 1e-3, fit.centre
-    X = _markings()
-    for got, truth in zip(fit.cameras, (FIRST, TURNED)):
-        px, ok = _in_view(truth, X)
-        assert np.abs(got.project(X[ok]) - px[ok]).max() < 0.01
-        assert np.allclose(got.center, fit.centre)
+    _assert_exact(fit, (FIRST, TURNED))
     assert fit.rms < 0.01 and (fit.length, fit.width) == (PITCH.length, PITCH.width)
     assert fit.size_sd == (np.inf, np.inf)
 
@@ -163,8 +168,4 @@ def test_views_with_non_square_pixels_are_fitted_too():
     start = TRUTH + 2.0 * FIRST.R[2]
     views = [tall(seated(c, start, MODEL, SIZE)) for c in (FIRST, TURNED)]
     fit = fit_tripod(views, [_paint(first), _paint(turned)], [SIZE, SIZE], MODEL, start, PITCH)
-    assert np.linalg.norm(fit.centre - TRUTH) < 1e-3, fit.centre
-    X = _markings()
-    for got, truth in zip(fit.cameras, (first, turned)):
-        px, ok = _in_view(truth, X)
-        assert np.abs(got.project(X[ok]) - px[ok]).max() < 0.01
+    _assert_exact(fit, (first, turned))
