@@ -17,6 +17,24 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = ROOT.parent / "shared" / "data"
 
 
+def pytest_configure(config) -> None:
+    """Compile every numba kernel into its cache once, in parallel, before the
+    tests start (on a fresh install each test worker, batch worker and CLI
+    subprocess would otherwise compile the same kernels again, about 40 s of
+    a core each). Skipped in xdist's workers: the controller did it."""
+    if hasattr(config, "workerinput"):
+        return
+    from arstream.kernels import compile_all
+
+    compile_all()
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """The tests marked ``long`` first (stable otherwise): started early, the
+    slowest tests do not leave one worker busy alone at the end of the run."""
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)
+
+
 @pytest.fixture
 def shared_data() -> Path:
     if not SHARED_DATA.exists():

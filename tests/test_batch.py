@@ -32,7 +32,7 @@ from arstream.synth import generate
 # one worker of a parallel run (pytest-xdist) takes the whole module: its
 # fixtures (the archive, the Ray session) are made once, and two Ray clusters
 # are not started side by side
-pytestmark = pytest.mark.xdist_group("batch")
+pytestmark = [pytest.mark.xdist_group("batch"), pytest.mark.long]
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAMES = 12

@@ -380,6 +380,7 @@ def _reference(item: str, frame: int = 0) -> tuple[Camera, PitchModel, dict]:
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 @pytest.mark.parametrize("item", STILLS)
+@pytest.mark.long
 def test_register_a_real_still(item):
     # as ``arstream register`` does it: no size given, the size the view
     # constrains estimated from 105 x 68 (the references' widths are 67.5-68.3 m)
@@ -736,6 +737,7 @@ def test_the_centre_circle_beside_the_halfway_line_is_no_penalty_arc():
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+@pytest.mark.long
 def test_long_lens_penalty_views_register_from_their_arc():
     # every 25th frame of israel_league_wide from 150 to 375 (a low camera's
     # long lens on the penalty area: the lines across it nearly parallel in
@@ -816,6 +818,7 @@ def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+@pytest.mark.long
 def test_a_still_lost_at_105_x_68_is_not_registered_at_another_size():
     # israel_league_wide frame 175 with a bar over its lower third
     # (bench/real_graphics.py, bar-33): no camera at 105 x 68. Registered at

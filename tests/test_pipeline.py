@@ -307,6 +307,7 @@ def test_truncated_mp4_processes_what_decodes(clip, tmp_path, capsys):
     assert len(read_jsonl(tmp_path / "c.jsonl")) == n
 
 
+@pytest.mark.long
 def test_corrupt_packets_are_skipped_and_reported(clip, tmp_path, capsys):
     data = bytearray((clip / "clip.mp4").read_bytes())
     rng = np.random.default_rng(0)

@@ -51,6 +51,7 @@ def test_the_stream_s_pixel_aspect_and_the_pitch_give_the_exact_camera(sd_clip, 
     assert sc.coverage == 1.0 and sc.median < 1.0 and sc.acc[5] == 1.0, sc
 
 
+@pytest.mark.long
 def test_a_wrong_pixel_aspect_or_pitch_costs_accuracy(sd_clip, tmp_path):
     # the same clip told square pixels, or told 105 x 68: the cameras no
     # longer fit (this is what the two options are for; with no size given,

@@ -18,6 +18,7 @@ from cameras import looking_at
 from geometry.pitch import PitchModel
 
 SIZE = (1280, 720)
+pytestmark = pytest.mark.long  # whole clips, tracked at several sizes
 
 
 def _views(pitch: PitchModel, targets, centre=(0.0, -55.0, 16.0), f=1400.0) -> list[PitchView]:

@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from real_perturbed import reencode  # noqa: E402  (another broadcast of the same match)
 from real_bars import barred_copy  # noqa: E402  (the same match inside black bars)
 
-pytestmark = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+pytestmark = [pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent"), pytest.mark.long]
 
 
 def _references(item: str) -> dict[int, tuple[Camera, PitchModel]]:

@@ -299,6 +299,7 @@ def whip_pan_errors(config=None):
     return np.array(errors), tr.stats
 
 
+@pytest.mark.long
 def test_tracker_keeps_up_with_a_whip_pan():
     # blur hides most markings and the pan outruns the constant-velocity model; the
     # pan sweep re-finds the camera, its pan set by the smeared bands' brightness

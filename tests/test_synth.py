@@ -74,6 +74,7 @@ def clips(tmp_path_factory):
 
 
 @pytest.mark.parametrize("preset", list(PRESETS))
+@pytest.mark.long
 def test_lines_sit_where_truth_projects_them(clips, preset):
     d = clips[preset]
     truth = read_jsonl(d / "truth.jsonl")
