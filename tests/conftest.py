@@ -21,12 +21,15 @@ def pytest_configure(config) -> None:
     """Compile every numba kernel into its cache once, in parallel, before the
     tests start (on a fresh install each test worker, batch worker and CLI
     subprocess would otherwise compile the same kernels again, about 40 s of
-    a core each). Skipped in xdist's workers: the controller did it."""
+    a core each). Skipped in xdist's workers: the controller did it. In a
+    process of its own (``python -m arstream.kernels``): the fork server its
+    pool starts stays out of this one, whose tests (``-n0``) start their own."""
     if hasattr(config, "workerinput"):
         return
-    from arstream.kernels import compile_all
+    import subprocess
+    import sys
 
-    compile_all()
+    subprocess.run([sys.executable, "-m", "arstream.kernels"], check=True, stdout=subprocess.DEVNULL)
 
 
 def pytest_collection_modifyitems(config, items) -> None:
