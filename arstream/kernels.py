@@ -18,7 +18,7 @@ start-up (the GIL is released while LLVM loads the code).
 in parallel: after an install, the first run compiles each kernel once into
 the cache, where every later process (a test worker, a batch worker, a CLI
 run) loads it instead of compiling it again (about 40 s of one core in all;
-20 s on two cores in parallel). ``python -m arstream.kernels`` calls it.
+20-30 s on two cores in parallel). ``python -m arstream.kernels`` calls it.
 """
 
 from __future__ import annotations
@@ -42,12 +42,11 @@ def warm_up() -> None:
         module.warm_up()
 
 
-def _warm_module(name: str) -> str:
+def _warm_module(name: str) -> None:
     """Import the kernel module ``name`` and call its ``warm_up`` (a worker's job)."""
     import importlib
 
     importlib.import_module(name).warm_up()
-    return name
 
 
 def compile_all(processes: int | None = None) -> None:
