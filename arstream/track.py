@@ -336,9 +336,9 @@ class Tracker:
         self.support_reach = int(support_reach)
         self.views = views if views is not None else FrameViews()
         self._paint_at = -(10**9)  # the frame the paint initialiser last ran on
-        self._paint = False  # the clip needed the paint initialiser: track on its paint pixels too
+        self._paint = False  # the clip needs its paint (the paint initialiser found a camera, or lines no marking explains): track on its paint pixels too
         self._bright: dict[int, np.ndarray] = {}  # frame -> line-support mask, while the smoother holds it
-        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0, "axis_moves": 0}
+        self.stats = {"ok": 0, "tracked": 0, "lost": 0, "cuts": 0, "inits": 0, "gated": 0, "reanchored": 0, "swept": 0, "pan_only": 0, "paint_inits": 0, "unsupported": 0, "pitch_changes": 0, "manoeuvres": 0, "centre_moves": 0, "unsmoothed": 0, "implausible": 0, "backfilled": 0, "other_cameras": 0, "other_refused": 0, "paint_rivals": 0, "axis_moves": 0, "paint_turns": 0}
 
     # --- filter ----------------------------------------------------------------
     def _new_filter(self, z: np.ndarray, Rz: np.ndarray, rate: np.ndarray | None = None) -> KalmanFilter:
@@ -857,7 +857,16 @@ class Tracker:
         the share of projected markings with a detected line pixel nearby, refine
         from the best, and accept it only if that peak is clear of the rest and the
         refinement explains the detected line pixels. With the frame (``image``,
-        BGR or grey) the pan is then set by :meth:`_pan_by_brightness`."""
+        BGR or grey) the pan is then set by :meth:`_pan_by_brightness`.
+
+        A refinement that finds the markings (``sweep_accept``) but leaves
+        more than ``1 - sweep_explained`` of the detected line pixels
+        unexplained means those pixels are not all markings (the lines of
+        other sports, boards): the tracker turns to the frame's paint, as it
+        does once the paint initialiser has found a camera (``_paint``), so
+        that later refinements are judged by the paint, not refused for the
+        detector's other lines (on `real-multisport` 21 the pan-only sweeps
+        that followed carried the zoom rate of one step for 12 frames)."""
         c = self.cfg
         W = self.size[0]
         ptz = PTZ(*ptr_from_rotation(pred.R), f=pred.focal)
@@ -885,6 +894,12 @@ class Tracker:
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
             if image is None or support[k] < c.sweep_accept:
                 return None
+            if r.confidence >= c.sweep_accept and not self._paint:
+                # the markings found their line pixels, but many line pixels
+                # are no marking (other sports' lines): the detector's lines
+                # do not judge a camera here; the frame's paint does, from now on
+                self._paint = True
+                self.stats["paint_turns"] += 1
             # too few line pixels to fix tilt, roll and zoom (heavy blur): keep the
             # prediction's, which change slowly, and set only the pan
             r = replace(r, camera=start)

@@ -208,6 +208,47 @@ def test_a_fresh_camera_along_bright_steps_is_not_output():
 
 
 
+def _with_a_court(img, cam, size):
+    """``img`` with the lines of another sport's court (a 30 x 24 m rectangle
+    and its centre line, inside the left half) painted as seen by ``cam``."""
+    import cv2
+
+    out = img.copy()
+    for a, b in [((-40, -12), (-10, -12)), ((-40, 12), (-10, 12)), ((-40, -12), (-40, 12)), ((-10, -12), (-10, 12)), ((-25, -12), (-25, 12))]:
+        t = np.linspace(0.0, 1.0, 200)[:, None]
+        X = np.column_stack([(1 - t) * np.array(a) + t * np.array(b), np.zeros(len(t))])
+        px = np.round(cam.project(X)).astype(np.int32)
+        cv2.polylines(out, [px.reshape(-1, 1, 2)], False, (200, 215, 215), 1, cv2.LINE_AA)
+    return out
+
+
+@pytest.mark.parametrize("court", [False, True])
+def test_a_sweep_on_lines_no_marking_explains_turns_to_the_paint(court):
+    # real-multisport 21 (bench/README.md "Stop 62"): the lines of other
+    # sports are detected line pixels that no marking explains, so a right
+    # sweep's refinement is refused (it explains under sweep_explained of
+    # them) and each sweep keeps tilt, roll and zoom from the prediction;
+    # over 12 such frames the zoom drifted 6 % and frames were drawn up to
+    # 118 px off. The detector's lines are then not all markings: the
+    # tracker turns to the frame's paint, as on real frames. Markings alone:
+    # it stays on the detector's lines.
+    from arstream.detect import detect
+    from arstream.solve import LineIndex, explained_share
+
+    cam = looking_at((0.0, -45.0, 14.0), (-15.0, 0.0, 0.0), 1.5 * SIZE[0], SIZE)
+    img = _banded(cam, SIZE, 0.12)
+    if court:
+        img = _with_a_court(img, cam, SIZE)
+    lidx = LineIndex(detect(img).line_points)
+    tr = Tracker(*SIZE)
+    tr.centre = cam.center.copy()
+    assert (explained_share(cam, lidx, SIZE, tr.model) < tr.cfg.sweep_explained) == court
+    r = tr._pan_sweep(_panned(cam, 0.01), lidx, img)
+    assert r is not None and r.confidence >= tr.cfg.sweep_accept
+    assert tr._paint == court and tr.stats["pan_only"] == int(court)
+    assert tr.stats.get("paint_turns", 0) == int(court)
+
+
 @pytest.mark.parametrize("given_up", [True, False])
 def test_a_fresh_camera_far_from_the_given_up_tripod_is_not_output(monkeypatch, given_up):
     # israel_league_wide in a whip pan (frame 89). On a copy of the clip
