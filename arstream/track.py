@@ -64,11 +64,6 @@ from geometry.pitch import PitchModel
 
 __all__ = ["Tracker", "TrackerConfig"]
 
-#: px: the association radii of a pan sweep's refinement, widest first. A
-#: detected line pixel beyond the first of every projected marking is one
-#: the refinement never draws to a marking (Tracker._pan_sweep)
-SWEEP_RADII = (10.0, 4.0, 2.5)
-
 
 @dataclass
 class TrackerConfig:
@@ -866,15 +861,12 @@ class Tracker:
 
         A refinement that finds the markings (``sweep_accept``) but leaves
         more than ``1 - sweep_explained`` of the detected line pixels
-        beyond its widest association radius (:data:`SWEEP_RADII`) of every
-        marking means those pixels are not all markings (the lines of other
-        sports, boards; markings a little off, at a pitch of another size or
-        through the lens, lie nearer): the tracker turns to the frame's
-        paint, as it does once the paint initialiser has found a camera
-        (``_paint``), so that later refinements are judged by the paint, not
-        refused for the detector's other lines (on `real-multisport` 21 the
-        pan-only sweeps that followed carried the zoom rate of one step for
-        12 frames)."""
+        unexplained means those pixels are not all markings (the lines of
+        other sports, boards): the tracker turns to the frame's paint, as it
+        does once the paint initialiser has found a camera (``_paint``), so
+        that later refinements are judged by the paint, not refused for the
+        detector's other lines (on `real-multisport` 21 the pan-only sweeps
+        that followed carried the zoom rate of one step for 12 frames)."""
         c = self.cfg
         W = self.size[0]
         ptz = PTZ(*ptr_from_rotation(pred.R), f=pred.focal)
@@ -895,20 +887,17 @@ class Tracker:
             return None
         try:
             start = camera_from_ptz(self.centre, PTZ(ptz.pan + offsets[k] * step_px / ptz.f, ptz.tilt, ptz.roll, ptz.f), self.pp, dist=dist)
-            r = refine_camera(start, lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=SWEEP_RADII, max_points=400)
+            r = refine_camera(start, lidx, self.size, self.model, center=self.centre, estimate_k1=False, radii=(10.0, 4.0, 2.5), max_points=400)
         except ValueError:
             return None
         trusted = True
         if r.confidence < c.sweep_accept or explained_share(r.camera, lidx, self.size, self.model) < c.sweep_explained:
             if image is None or support[k] < c.sweep_accept:
                 return None
-            if r.confidence >= c.sweep_accept and not self._paint and explained_share(r.camera, lidx, self.size, self.model, radius=SWEEP_RADII[0]) < c.sweep_explained:
+            if r.confidence >= c.sweep_accept and not self._paint:
                 # the markings found their line pixels, but many line pixels
-                # lie beyond the refinement's reach of every marking: lines
-                # that are no marking (other sports'), not markings a little
-                # off (a pitch of another size, the lens). The detector's
-                # lines do not judge a camera here; the frame's paint does,
-                # from now on
+                # are no marking (other sports' lines): the detector's lines
+                # do not judge a camera here; the frame's paint does, from now on
                 self._paint = True
                 self.stats["paint_turns"] += 1
             # too few line pixels to fix tilt, roll and zoom (heavy blur): keep the
