@@ -208,7 +208,7 @@ def test_a_fresh_camera_along_bright_steps_is_not_output():
 
 
 
-def _with_a_court(img, cam, size):
+def _with_a_court(img, cam):
     """``img`` with the lines of another sport's court (a 30 x 24 m rectangle
     and its centre line, inside the left half) painted as seen by ``cam``."""
     import cv2
@@ -238,7 +238,7 @@ def test_a_sweep_on_lines_no_marking_explains_turns_to_the_paint(court):
     cam = looking_at((0.0, -45.0, 14.0), (-15.0, 0.0, 0.0), 1.5 * SIZE[0], SIZE)
     img = _banded(cam, SIZE, 0.12)
     if court:
-        img = _with_a_court(img, cam, SIZE)
+        img = _with_a_court(img, cam)
     lidx = LineIndex(detect(img).line_points)
     tr = Tracker(*SIZE)
     tr.centre = cam.center.copy()
