@@ -52,6 +52,7 @@ spot); pixels of the views' frames.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,7 +63,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -136,6 +137,24 @@ STILL_SUPPORTED = 0.8
 #: against the default's 0.93, which lays 57 of the disputed points on paint
 #: to its 4; bench/README.md "Stop 55")
 STILL_GAIN_RATIO = 2.0
+#: the scan's third way a size wins (:func:`paint_prefers`): over the frames
+#: both sizes' trackers gave a camera, of the points of the same markings in
+#: view of both cameras that the two lay on different places
+#: (:func:`arstream.support.paint_dispute` with ``in_both``), one size's
+#: cameras lay at least this many times as many on paint as the other's, and
+#: more by :data:`SCAN_DISPUTE_MARGIN` of the points in view. The medians
+#: and the paired test compare shares of different points, each diluted by
+#: the markings both sizes lay alike; the disputed points are the ones a
+#: size changes (a 101.5 x 69 m penalty view: its estimate's cameras at
+#: 0.970 against 105 x 68's 0.959, but 2460 disputed points on paint to
+#: 511; ``bench/README.md``, "Stop 63")
+SCAN_GAIN_RATIO = 2.0
+#: see :data:`SCAN_GAIN_RATIO`. On the 20 realistic synthetic clips of a
+#: 105 x 68 m pitch (seeds 1-5 of the four presets) no grid neighbour gains
+#: more than 0.0002 of the points in view on the default (most lose 0.01-0.25);
+#: on clips of other sizes, sizes nearer the truth than 105 x 68 gain
+#: 0.006-0.10 (``bench/README.md``, "Stop 63")
+SCAN_DISPUTE_MARGIN = 0.005
 
 
 @dataclass(frozen=True)
@@ -251,6 +270,12 @@ class SizeScan:
         what the choice was made on (:func:`with_size` adds a size to it)
     point_for_point : the sizes' cameras were compared point for point on
         the paint (a still: :func:`choose_still_size`), not by their supports
+    disputes : {(size_a, size_b): PaintDispute} summed over the frames both
+        sizes gave a camera (``first`` counts for ``size_a``), the scan's
+        point-for-point comparison of two sizes' cameras (:func:`paint_prefers`)
+    cameras : per size, the camera of each frame (None: no camera), on the
+        frame's pixels, for judging another size against them later
+        (:func:`arstream.pipeline.pitch_scan.check_size`)
     """
 
     sizes: tuple
@@ -260,6 +285,8 @@ class SizeScan:
     chosen: int
     supports: tuple = field(default=(), repr=False, compare=False)
     point_for_point: bool = False
+    disputes: dict = field(default_factory=dict, repr=False, compare=False)
+    cameras: tuple = field(default=(), repr=False, compare=False)
 
     @property
     def size(self) -> tuple[float, float]:
@@ -372,23 +399,53 @@ def higher_throughout(base, other) -> bool:
     return bool(pro >= SCAN_MIN_BLOCKS and binomtest(pro, pro + con, 0.5, alternative="greater").pvalue <= SCAN_SIGN_LEVEL)
 
 
-def leans_above(base, other) -> bool:
+def leans_above(base, other, dispute=None) -> bool:
     """Whether the clip's paint leans towards ``other``'s cameras over
-    ``base``'s: more blocks for it than against (:func:`paired_blocks`), the
-    weakest sign the scan reads (a neighbour that leans the same way as its
-    mirror leaves the dimension open; :func:`choose_size`,
-    :func:`diagonal_step`).
+    ``base``'s: more blocks for it than against (:func:`paired_blocks`), or
+    more of the disputed points on paint (``dispute``, as for
+    :func:`paint_prefers`), the weakest signs the scan reads (a neighbour
+    that leans the same way as its mirror leaves the dimension open;
+    :func:`choose_size`, :func:`diagonal_step`).
 
     Parameters
     ----------
     base, other : sequences of the same frames, a line support per frame
         (None where that size's tracker gave no camera)
+    dispute : optional PaintDispute of ``base``'s cameras against ``other``'s
     """
     pro, con = paired_blocks(base, other)
-    return pro > con
+    return pro > con or (dispute is not None and dispute.second > dispute.first)
 
 
-def choose_size(sizes, supports) -> SizeScan:
+def paint_prefers(dispute) -> bool:
+    """Whether the paint backs the second of two sizes' cameras over the
+    first, point for point: ``dispute`` (a PaintDispute of the first against
+    the second, over the frames both gave a camera, counting the points in
+    view of both) has the second lay at least :data:`SCAN_GAIN_RATIO` times
+    as many of the disputed points on paint as the first, and more of them by
+    :data:`SCAN_DISPUTE_MARGIN` of the points in view.
+
+    >>> from arstream.support import PaintDispute
+    >>> paint_prefers(PaintDispute(511, 2460, 48114, 180000))  # 4.8 times as many, 0.011 of the points
+    True
+    >>> paint_prefers(PaintDispute(220, 1419, 25983, 400000))  # 6.5 times as many, but 0.003 of the points
+    False
+    """
+    if dispute is None or dispute.in_view <= 0:
+        return False
+    return dispute.second >= SCAN_GAIN_RATIO * dispute.first and dispute.second - dispute.first >= SCAN_DISPUTE_MARGIN * dispute.in_view
+
+
+def _dispute(disputes, a, b):
+    """The dispute of size ``a``'s cameras against ``b``'s (``first`` for ``a``) from a scan's ``disputes``; None if not compared."""
+    if (a, b) in disputes:
+        return disputes[(a, b)]
+    if (b, a) in disputes:
+        return disputes[(b, a)].swapped()
+    return None
+
+
+def choose_size(sizes, supports, disputes=None) -> SizeScan:
     """The size whose cameras the clip's paint backs best.
 
     Parameters
@@ -396,16 +453,21 @@ def choose_size(sizes, supports) -> SizeScan:
     sizes : sequence of (length, width), the default's first
     supports : one sequence per size, a line support per frame (None where
         that size's tracker gave no camera), all of the same frames
+    disputes : optional {(size_a, size_b): PaintDispute} (as
+        :attr:`SizeScan.disputes`), pairs of the sizes' cameras compared
+        point for point on the same frames
 
     Returns
     -------
     SizeScan. A size is *higher* than another when its median line support
     is higher by :data:`SCAN_MARGIN`, or when the paint backs it more
-    frame by frame throughout the clip (:func:`higher_throughout`); against
-    the default, a size higher by the paired test alone also needs the size
-    on the other side of the default along that dimension not to lean the
-    same way (more blocks for it than against: a long lens's views that
-    cannot tell 100 from 110 m favour both a little). Another
+    frame by frame throughout the clip (:func:`higher_throughout`), or
+    point for point (:func:`paint_prefers`, where the two were compared);
+    against the default, a size higher by one of the last two alone also
+    needs the size on the other side of the default along that dimension not
+    to lean the same way (:func:`leans_above`: more blocks for it than
+    against, or more of the disputed points on paint: a long lens's views
+    that cannot tell 100 from 110 m favour both a little). Another
     size replaces the default only when it is higher than the default on a
     coverage no lower by more than 5 points (a size that finds cameras on
     fewer frames is not a better fit for scoring only its easy ones), and
@@ -422,6 +484,7 @@ def choose_size(sizes, supports) -> SizeScan:
     noise (a penalty view's 100, 105 and 110 m lengths alike).
     """
     sizes = tuple((float(L), float(W)) for L, W in sizes)
+    disputes = {} if disputes is None else {(tuple(map(float, a)), tuple(map(float, b))): v for (a, b), v in disputes.items()}
     if len(supports) != len(sizes) or not sizes:
         raise ValueError(f"one list of supports per size: {len(sizes)} sizes, {len(supports)} lists")
     frames = len(supports[0])
@@ -434,7 +497,7 @@ def choose_size(sizes, supports) -> SizeScan:
     def higher(j: int, k: int) -> bool:
         # (a size without a median, its tracker lost on most frames, is no
         # baseline: the scan's trackers cannot follow this clip there)
-        return med[j] is not None and med[k] is not None and (med[k] >= med[j] + SCAN_MARGIN or higher_throughout(supports[j], supports[k]))
+        return med[j] is not None and med[k] is not None and (med[k] >= med[j] + SCAN_MARGIN or higher_throughout(supports[j], supports[k]) or paint_prefers(_dispute(disputes, sizes[j], sizes[k])))
 
     def opposite(k: int) -> int | None:
         # (the size on the other side of the default along the one dimension k changes)
@@ -451,7 +514,7 @@ def choose_size(sizes, supports) -> SizeScan:
         if med[k] >= med[0] + SCAN_MARGIN:
             return True
         o = opposite(k)
-        return o is None or med[o] is None or not leans_above(supports[0], supports[o])
+        return o is None or med[o] is None or not leans_above(supports[0], supports[o], _dispute(disputes, d, sizes[o]))
 
     up = [k > 0 and up(k) for k in range(len(sizes))]
     open_axes = []
@@ -468,7 +531,7 @@ def choose_size(sizes, supports) -> SizeScan:
     for k in sorted(left, key=lambda k: (changed(k), -med[k])):
         if chosen == 0 or (changed(k) > changed(chosen) and higher(chosen, k)):
             chosen = k
-    return SizeScan(sizes, med, cov, frames, chosen, tuple(list(x) for x in supports))
+    return SizeScan(sizes, med, cov, frames, chosen, tuple(list(x) for x in supports), disputes=disputes)
 
 
 def choose_still_size(sizes, supports, dispute) -> SizeScan:
@@ -549,7 +612,7 @@ def still_scan_sizes(pitch: PitchModel) -> list[tuple[float, float]]:
     return [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
 
 
-def size_dispute(cameras, pitches, mask: np.ndarray):
+def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False):
     """The ``dispute`` of :func:`choose_still_size` for one still: camera
     ``j`` at pitch ``j`` against camera ``k`` at pitch ``k`` on the frame's
     paint, on the same samples of the same markings
@@ -560,6 +623,8 @@ def size_dispute(cameras, pitches, mask: np.ndarray):
     cameras : sequence of Camera (None where a size gave none), one per size
     pitches : sequence of PitchModel, the size each camera was made at
     mask : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
+    in_both : only the points in view of both cameras (a clip's scan; as
+        :func:`arstream.support.paint_dispute`)
 
     Returns
     -------
@@ -568,7 +633,7 @@ def size_dispute(cameras, pitches, mask: np.ndarray):
 
     def dispute(j: int, k: int):
         pj, pk = corresponding_samples(pitches[j], pitches[k], SPACING)
-        return paint_dispute(cameras[j], np.column_stack([pj, np.zeros(len(pj))]), cameras[k], np.column_stack([pk, np.zeros(len(pk))]), mask)
+        return paint_dispute(cameras[j], np.column_stack([pj, np.zeros(len(pj))]), cameras[k], np.column_stack([pk, np.zeros(len(pk))]), mask, in_both=in_both)
 
     return dispute
 
@@ -580,7 +645,8 @@ def diagonal_step(scan: SizeScan) -> tuple[float, float] | None:
 
     Along each dimension, the one neighbour of the default that leans above
     it: a higher median line support and more blocks for it than against
-    (:func:`paired_blocks`), while the neighbour on the other side does not
+    (:func:`paired_blocks`) or more of the disputed points on paint
+    (:func:`leans_above`), while the neighbour on the other side does not
     lean so (both leaning: the dimension is open). A pitch off along both
     dimensions moves each one-step neighbour only part of the way, and
     neither may clear :func:`choose_size`'s bar on its own: a synthetic
@@ -610,7 +676,7 @@ def diagonal_step(scan: SizeScan) -> tuple[float, float] | None:
             s = scan.sizes[k]
             if s[1 - a] != d[1 - a] or s[a] == d[a] or med[k] is None:
                 continue
-            if med[k] > med[0] and leans_above(scan.supports[0], scan.supports[k]):
+            if med[k] > med[0] and leans_above(scan.supports[0], scan.supports[k], _dispute(scan.disputes, d, s)):
                 lean.append(s[a])
         if len(lean) != 1:
             return None
@@ -618,7 +684,7 @@ def diagonal_step(scan: SizeScan) -> tuple[float, float] | None:
     return (step[0], step[1])
 
 
-def with_size(scan: SizeScan, size, supports) -> SizeScan:
+def with_size(scan: SizeScan, size, supports, disputes=None, cameras=None) -> SizeScan:
     """The choice made again with one more size (:func:`choose_size` over
     ``scan``'s sizes and ``size``): e.g. the size estimated from the
     default's own views, judged as the grid's sizes were.
@@ -629,12 +695,18 @@ def with_size(scan: SizeScan, size, supports) -> SizeScan:
     size : (length, width) in metres
     supports : ``size``'s line support per frame of the scan's frames (a
         shorter list, whose tracker stopped, counts the rest as no camera)
+    disputes : optional {(size_a, size_b): PaintDispute} of ``size``'s
+        cameras against the scan's sizes' (:attr:`SizeScan.disputes`)
+    cameras : optional, ``size``'s camera per frame (kept with the scan's)
     """
     if len(scan.supports) != len(scan.sizes):
         raise ValueError("the scan carries no supports to judge another size against")
     extra = list(supports)[: scan.frames]
     extra += [None] * (scan.frames - len(extra))
-    return choose_size(tuple(scan.sizes) + (tuple(float(v) for v in size),), tuple(scan.supports) + (extra,))
+    got = choose_size(tuple(scan.sizes) + (tuple(float(v) for v in size),), tuple(scan.supports) + (extra,), {**scan.disputes, **(disputes or {})})
+    if scan.cameras and cameras is not None:
+        got = dataclasses.replace(got, cameras=tuple(scan.cameras) + (tuple(cameras),))
+    return got
 
 
 def size_derivatives(pitch: PitchModel, model: ModelSamples) -> tuple[np.ndarray, np.ndarray]:

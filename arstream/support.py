@@ -434,8 +434,16 @@ class PaintDispute:
     disputed: int
     in_view: int
 
+    def __add__(self, other: "PaintDispute") -> "PaintDispute":
+        """The counts of two frames' disputes (or two sets of points) together."""
+        return PaintDispute(self.first + other.first, self.second + other.second, self.disputed + other.disputed, self.in_view + other.in_view)
 
-def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, second_points: np.ndarray, mask: np.ndarray) -> PaintDispute:
+    def swapped(self) -> "PaintDispute":
+        """The same dispute with the cameras' roles exchanged."""
+        return PaintDispute(self.second, self.first, self.disputed, self.in_view)
+
+
+def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, second_points: np.ndarray, mask: np.ndarray, *, in_both: bool = False) -> PaintDispute:
     """Which of two cameras lays more of the same markings on a frame's paint.
 
     The line support is a share of the points each camera has in view, so
@@ -455,17 +463,28 @@ def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, secon
         samples of the same markings on each camera's pitch (its size:
         :func:`arstream.pitch_size.corresponding_samples`), in one order
     mask : (H, W) bool, :func:`bright_mask` of the frame's luma
+    in_both : count only the points in view of both cameras. The samples of
+        two pitch sizes' markings are the same fractions along each line
+        (:func:`arstream.pitch_size.corresponding_samples`), so they slide
+        along it with the size: at the image's edge one camera brings into
+        view samples of a painted line that the other leaves outside, and in
+        view of that camera alone they land on paint whichever size is right
+        (a penalty view of a 105 m pitch: a 100 m pitch's camera lays 6 times
+        as many such points on paint as the 105 m one's; ``bench/README.md``,
+        "Stop 63"). A still's judgement keeps the default (a camera that
+        leaves a marking out of the image is what it must see); a clip's scan
+        of sizes uses this.
 
     Returns
     -------
-    PaintDispute
+    PaintDispute (``in_view``: the points in view of both, with ``in_both``)
     """
     if len(first_points) != len(second_points):
         raise ValueError(f"the same samples on both pitches: {len(first_points)} and {len(second_points)} points")
     pa, pb = first.project(np.asarray(first_points, np.float64)), second.project(np.asarray(second_points, np.float64))
     ina, ona = _lookup(pa, mask)
     inb, onb = _lookup(pb, mask)
-    either = ina | inb
+    either = (ina & inb) if in_both else (ina | inb)
     with np.errstate(invalid="ignore"):
         same = ina & inb & (np.max(np.abs(pa - pb), axis=1) <= REACH)
     disputed = either & ~same

@@ -17,7 +17,8 @@ on every clip without running it. ``--clip PATH`` adds clips of unknown size
 
 Columns: the clip, its pitch, the median line support at 105 x 68, each
 grid neighbour's median and (blocks for, against) of the paired test
-(:func:`arstream.pitch_size.paired_blocks`), the scan's choice, and the
+(:func:`arstream.pitch_size.paired_blocks`; then 105 x 68's and the
+neighbour's disputed points on paint, :func:`arstream.pitch_size.paint_prefers`), the scan's choice, and the
 verdict: at 105 x 68, *false* when the scan moves it; at another size,
 *nearer* / *kept* / *further* by the grid distance to the truth (metres over
 the grid's step, the larger of the two dimensions). The scan runs in
@@ -45,10 +46,11 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from arstream.pipeline import api  # noqa: E402
-from arstream.pipeline.pitch_scan import scan_passes, track_sizes  # noqa: E402
+from arstream.pipeline.pitch_scan import SizesTracked, scan_passes, track_sizes  # noqa: E402
 from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis  # noqa: E402
 from arstream.pitch_size import SCAN_LENGTHS, SCAN_WIDTHS, _median, grid_neighbours, paired_blocks  # noqa: E402
 from arstream.presets import REAL_PRESETS  # noqa: E402
+from arstream.support import PaintDispute  # noqa: E402
 from arstream.synth import generate  # noqa: E402
 from real_synth import seeds_arg  # noqa: E402
 
@@ -57,15 +59,23 @@ GRID = [DEFAULT] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) 
 
 
 def track_grid(clip: Path, pixel_aspect: float | None = None) -> dict:
-    """Every frame of ``clip`` tracked at each grid size: {"sizes", "supports"}
-    (per size a line support per frame, None where it gave no camera), as
-    the scan's trackers would, on the picture inside any black bars."""
+    """Every frame of ``clip`` tracked at each grid size: {"sizes", "supports",
+    "disputes"} (per size a line support per frame, None where it gave no
+    camera; per pair of sizes [size_a, size_b, first, second, disputed,
+    in_view], their cameras point for point), as the scan's trackers would,
+    on the picture inside any black bars."""
     api._load_kernels()
     area = api._picture_area(clip)
     with api._open(clip) as src:
         an = Analysis(src.width, src.height, DEFAULT_ANALYSIS_WIDTH, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=area)
-        supports, _ = track_sizes(src, an, GRID, handle_signals=False)
-    return {"sizes": [list(s) for s in GRID], "supports": supports}
+        got, _ = track_sizes(src, an, GRID, handle_signals=False)
+    disputes = [[list(a), list(b), d.first, d.second, d.disputed, d.in_view] for (a, b), d in got.disputes.items()]
+    return {"sizes": [list(s) for s in GRID], "supports": got.supports, "disputes": disputes}
+
+
+def _disputes(row: dict) -> dict:
+    """A row's disputes as :attr:`arstream.pitch_size.SizeScan.disputes` (none in rows of older benches)."""
+    return {(tuple(a), tuple(b)): PaintDispute(*v) for a, b, *v in row.get("disputes", [])}
 
 
 def grid_steps(a, b) -> float:
@@ -76,7 +86,8 @@ def grid_steps(a, b) -> float:
 def judge(row: dict) -> dict:
     """The scan replayed on a row's supports, with its verdict."""
     table = {tuple(s): sup for s, sup in zip(row["sizes"], row["supports"])}
-    pick = scan_passes(lambda sizes: [table[tuple(s)] for s in sizes])
+    disputes = _disputes(row)
+    pick = scan_passes(lambda sizes, rivals: SizesTracked([table[tuple(s)] for s in sizes], disputes=disputes))
     truth = tuple(row["truth"]) if row.get("truth") else None
     if truth is None:
         verdict = ""
@@ -142,7 +153,9 @@ def main(argv=None) -> int:
         for s in nb:
             m = _median(table[s])
             pro, con = paired_blocks(table[DEFAULT], table[s])
-            cells.append(f"{'-' if m is None else f'{m:.3f}'} ({pro}, {con})")
+            d = _disputes(r).get((DEFAULT, s))
+            paint = "" if d is None else f"; {d.first}:{d.second}"
+            cells.append(f"{'-' if m is None else f'{m:.3f}'} ({pro}, {con}{paint})")
         truth = "?" if r["truth"] is None else f"{r['truth'][0]:g} x {r['truth'][1]:g}"
         print(f"| {r['clip']} | {truth} | {'-' if m0 is None else f'{m0:.3f}'} | " + " | ".join(cells) + f" | {r['chosen'][0]:g} x {r['chosen'][1]:g} | {r['verdict']} |")
     count = lambda v: sum(r["verdict"] == v for r in rows)  # noqa: E731

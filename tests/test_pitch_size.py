@@ -283,6 +283,44 @@ def test_a_size_higher_on_every_frame_wins_under_the_margin():
     assert choose_size([(105, 68), (105, 72)], [base, alike]).chosen == 0
 
 
+@pytest.mark.parametrize(
+    "default_on, other_on, in_view, mirror_on, chosen",
+    [
+        (511, 2460, 180_000, None, 1),  # a 101.5 x 69 m penalty view (bench/README.md "Stop 63"): 4.8 times as many, 0.011 of the points
+        (1062, 2189, 180_000, None, 1),  # its 100 x 68 (nearer than 105 x 68): 2.06 times as many, 0.0063 of the points
+        (1062, 2000, 180_000, None, 0),  # 1.9 times as many
+        (220, 1419, 400_000, None, 0),  # 6.5 times as many, but 0.003 of the points in view
+        (6323, 10603, 180_000, None, 0),  # 0.024 of the points more, but 1.7 times as many
+        (511, 2460, 180_000, 2460, 0),  # the other side of the default preferred too: the dimension is open
+        (511, 2460, 180_000, 600, 0),  # the other side leans so (more of its disputed points on paint): open
+        (511, 2460, 180_000, 511, 1),  # the other side as many: it does not lean
+    ],
+)
+def test_a_size_the_paint_prefers_point_for_point_wins_under_the_margin(default_on, other_on, in_view, mirror_on, chosen):
+    # the medians 0.011 apart (under SCAN_MARGIN) and no block for either
+    # size; the two sizes' cameras compared point for point on the points in
+    # view of both (arstream.support.paint_dispute, in_both): a size whose
+    # cameras lay SCAN_GAIN_RATIO times as many of the disputed points on
+    # paint, and SCAN_DISPUTE_MARGIN of the points in view more, wins
+    from arstream.pitch_size import SCAN_DISPUTE_MARGIN, SCAN_GAIN_RATIO, choose_size, paint_prefers
+    from arstream.support import PaintDispute
+
+    base = _noisy(200, 5)
+    sizes = [(105.0, 68.0), (100.0, 68.0), (110.0, 68.0)]
+    other = [b + 0.011 for b in base[:100]] + [b - 0.001 for b in base[100:]]  # (4 blocks for, 4 tied: no paired win)
+    d = PaintDispute(default_on, other_on, 3 * other_on, in_view)
+    disputes = {(sizes[0], sizes[1]): d}
+    if mirror_on is not None:
+        disputes[(sizes[0], sizes[2])] = PaintDispute(default_on, mirror_on, 3 * other_on, in_view)
+    got = choose_size(sizes, [base, other, base], disputes)
+    assert got.chosen == chosen, got.describe()
+    assert paint_prefers(d) is (other_on >= SCAN_GAIN_RATIO * default_on and other_on - default_on >= SCAN_DISPUTE_MARGIN * in_view)
+    assert choose_size(sizes, [base, other, base]).chosen == 0  # without the comparison, nothing wins
+    # the same dispute keyed the other way round (the other size's cameras first)
+    swapped = {(b, a): v.swapped() for (a, b), v in disputes.items()}
+    assert choose_size(sizes, [base, other, base], swapped).chosen == chosen
+
+
 def test_a_farther_size_must_beat_the_nearer_one():
     # 105 x 72 beats the default; 110 x 72 (two dimensions changed) has a higher
     # median than 105 x 72, but is higher on half the clip and lower on the
@@ -323,14 +361,15 @@ def test_a_paired_win_needs_the_other_side_not_to_lean_the_same_way(longer, chos
 def test_the_scan_s_passes_over_the_grid():
     # the second pass tracks the winner's neighbours not yet tracked, and the
     # choice is made over every size tracked
-    from arstream.pipeline.pitch_scan import scan_passes
+    from arstream.pipeline.pitch_scan import SizesTracked, scan_passes
 
     asked = []
     fit = {(100.0, 72.0): 0.97, (100.0, 68.0): 0.90, (105.0, 72.0): 0.88}
 
-    def track(sizes):
+    def track(sizes, rivals):
         asked.append(list(sizes))
-        return [_sup(fit.get(s, 0.80)) for s in sizes]
+        assert set(rivals) == {s for pass_ in asked[:-1] for s in pass_}  # (the earlier passes' cameras)
+        return SizesTracked([_sup(fit.get(s, 0.80)) for s in sizes], [[None] * 30 for _ in sizes])
 
     got = scan_passes(track)
     assert asked == [[(105.0, 68.0), (100.0, 68.0), (110.0, 68.0), (105.0, 64.0), (105.0, 72.0)], [(100.0, 64.0), (100.0, 72.0)]]
@@ -357,7 +396,7 @@ def test_a_scan_whose_steps_each_lean_up_tries_both_steps_at_once(lean, expected
     # dimension leans above it: the size taking both is tracked and judged by
     # the same rule (a pitch off along both dimensions moves each single step
     # only part of the way). Nothing more is tracked otherwise
-    from arstream.pipeline.pitch_scan import scan_passes
+    from arstream.pipeline.pitch_scan import SizesTracked, scan_passes
     from arstream.pitch_size import choose_size, diagonal_step
 
     base = _noisy(100, 3)
@@ -370,9 +409,9 @@ def test_a_scan_whose_steps_each_lean_up_tries_both_steps_at_once(lean, expected
 
     asked = []
 
-    def track(sizes):
+    def track(sizes, rivals):
         asked.append(list(sizes))
-        return [sup(s) for s in sizes]
+        return SizesTracked([sup(s) for s in sizes])
 
     first = [(105.0, 68.0), (100.0, 68.0), (110.0, 68.0), (105.0, 64.0), (105.0, 72.0)]
     assert diagonal_step(choose_size(first, [sup(s) for s in first])) == expected
@@ -402,11 +441,11 @@ def test_the_scan_on_tracked_clips(clip, chosen):
     import json
     from pathlib import Path
 
-    from arstream.pipeline.pitch_scan import scan_passes
+    from arstream.pipeline.pitch_scan import SizesTracked, scan_passes
 
     rows = {r["clip"]: r for r in json.loads((Path(__file__).parent / "data" / "size_scan" / "supports.json").read_text())}
     table = {tuple(s): sup for s, sup in zip(rows[clip]["sizes"], rows[clip]["supports"])}
-    assert scan_passes(lambda sizes: [table[s] for s in sizes]).size == chosen
+    assert scan_passes(lambda sizes, rivals: SizesTracked([table[s] for s in sizes])).size == chosen
 
 
 def test_with_size_judges_one_more_size():
@@ -598,6 +637,57 @@ def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, mo
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
     sc = score_files(clip.parent / "truth.jsonl", cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
     assert sc.coverage >= 0.95 and sc.median < 1.0, sc
+
+
+def test_the_scan_compares_two_sizes_cameras_point_for_point_across_passes(odd_clip):
+    # the 100 x 68 m clip tracked at 105 x 68 and 100 x 68 in one pass: on
+    # the points of the same markings in view of both cameras, the 100 m
+    # cameras lay far more of the disputed ones on paint (paint_prefers).
+    # Tracked in a later pass against the first pass's 105 x 68 cameras (as
+    # check_size judges an estimate), the counts are the same
+    from arstream.pipeline import api
+    from arstream.pipeline.pitch_scan import track_sizes
+    from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis
+    from arstream.pitch_size import paint_prefers
+
+    clip, _, _ = odd_clip()
+    api._load_kernels()
+    default, odd = (105.0, 68.0), (100.0, 68.0)
+    with api._open(clip) as src:
+        an = Analysis(src.width, src.height, DEFAULT_ANALYSIS_WIDTH, area=api._picture_area(clip))
+        one, _ = track_sizes(src, an, [default, odd], handle_signals=False)
+    assert sum(c is not None for c in one.cameras[0]) == sum(c is not None for c in one.cameras[1]) == FRAMES_ODD
+    d = one.disputes[(default, odd)]
+    assert paint_prefers(d) and d.second >= 5 * max(d.first, 1) and d.disputed <= d.in_view, d
+    with api._open(clip) as src:
+        later, _ = track_sizes(src, an, [odd], rivals={default: one.cameras[0]}, handle_signals=False)
+    assert later.disputes == {(default, odd): d} and later.supports == one.supports[1:]
+
+
+def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path, odd_clip):
+    # the 100 x 68 m clip's last run given an estimate 2.5 m long (as views
+    # made at a size metres off can give): the run's own views estimate the
+    # size again, beyond two of its sd of 102.5 x 68, and the clip is tracked
+    # once more at that estimate, which then stays; the outputs are a run's
+    # given that size
+    import copy
+
+    from arstream.pipeline import api, process
+    from arstream.pitch_size import PitchSize
+
+    clip, _, f = odd_clip()
+    runs = []
+    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=lambda done, total: done == 1 and runs.append(0), max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    cams = tmp_path / "cams.jsonl"
+    off = PitchSize(102.5, 68.0, 0.3, 0.3, source="estimated", views=6)
+    before = copy.copy(f)
+    s = api._at_estimate(clip, None, cams, before, run, off)
+    assert len(runs) >= 2 and s.pitch["source"] == "estimated", s.pitch_text
+    assert abs(s.pitch["length"] - 100.0) < 1.0 and abs(s.pitch["width"] - 68.0) < 1.0, s.pitch_text
+    assert s.seconds > before.seconds and not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    given = tmp_path / "given.jsonl"
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
 
 
 def test_an_estimate_the_paint_does_not_back_better_is_not_kept(tmp_path, monkeypatch, odd_clip):

@@ -219,6 +219,37 @@ def test_paint_dispute_counts_markings_out_of_one_view():
     assert on_circle.disputed == 0 and on_circle.in_view == circle.sum() > 100, on_circle
 
 
+def test_paint_dispute_in_view_of_both_leaves_out_samples_slid_into_one_view():
+    # a penalty view of a 105 x 68 m pitch; the camera a 100 x 68 m pitch
+    # would be given lays its penalty area on the same paint (the camera
+    # moved 2.5 m along the length). The two pitches' samples are the same
+    # fractions along each line, so the near touchline's slide 0-2.5 m
+    # towards the goal: at the image's edge some come into the second
+    # camera's view only, on the painted line, and count for it. In view of
+    # both, they are left out, and the wrong size wins nothing
+    from arstream.pitch_size import corresponding_samples
+    from arstream.support import paint_dispute
+    from cameras import looking_at
+
+    size = (1280, 720)
+    cam = looking_at((20.0, -45.0, 15.0), (40.0, 0.0, 0.0), 1600.0, size)
+    short = _shifted(cam, (-2.5, 0.0, 0.0))
+    true = PitchModel(105.0, 68.0)
+    mask = bright_mask(_painted(cam, size, pitch=true)[..., 1])
+    a, b = (np.column_stack([p, np.zeros(len(p))]) for p in corresponding_samples(true, PitchModel(100.0, 68.0)))
+    either = paint_dispute(cam, a, short, b, mask)
+    both = paint_dispute(cam, a, short, b, mask, in_both=True)
+    assert either.second > either.first, either
+    assert both.second <= both.first and both.in_view < either.in_view and both.first == either.first, both
+    assert both.in_view == np.count_nonzero(_inside(cam.project(a), size) & _inside(short.project(b), size))
+
+
+def _inside(px: np.ndarray, size) -> np.ndarray:
+    """Which projected points' nearest pixels lie in an image of ``size`` (W, H)."""
+    ix = np.floor(px + 0.5)
+    return (ix[:, 0] >= 0) & (ix[:, 0] < size[0]) & (ix[:, 1] >= 0) & (ix[:, 1] < size[1])
+
+
 def test_paint_dispute_wants_the_same_samples():
     from arstream.support import paint_dispute
 

@@ -323,7 +323,8 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     has its views, and its frames before were drawn at the grid's size (metres
     off: 110 x 64 for a 103.5 x 65 m pitch; tens of pixels where the markings
     are near the camera); so when the estimate is another size, a last run tracks the
-    whole clip at the estimate, as if it had been given. When no grid size
+    whole clip at the estimate, as if it had been given, and estimates it
+    again from its own views (:func:`_at_estimate`). When no grid size
     wins, the size estimated from the default's own views may
     (:func:`_estimate_from_default`). Each run after the
     first writes beside the outputs and replaces them only when it completes:
@@ -343,15 +344,13 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     first.cpu_seconds += scan_cpu
     if scan.chosen == 0:
         return _estimate_from_default(input, output, cameras_out, first, an, run, scan)
-    second, est = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(*scan.size), estimate_pitch=True)
+    second, est, _ = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(*scan.size), estimate_pitch=True)
     estimated = est is not None and est.source == "estimated"
     size = dataclasses.replace(est, scan=scan) if estimated else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
     second.pitch, second.pitch_text = size.to_dict(), size.describe()
     if not estimated or (est.length, est.width) == tuple(scan.size):
         return second
-    last, _ = _run_beside(input, output, cameras_out, second, run, pitch=size.model(), estimate_pitch=False)
-    last.pitch, last.pitch_text = size.to_dict(), size.describe()
-    return last
+    return _at_estimate(input, output, cameras_out, second, run, size)
 
 
 def _scan_options(input, run: dict) -> dict:
@@ -380,7 +379,8 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     standard deviations of the default is no other size): on real views the
     estimate can be metres off (``docs/real-footage.md``), and only a size
     the paint backs better than the default is kept. Kept, a last run tracks
-    the whole clip at it (written beside the outputs as in :func:`_rescan`);
+    the whole clip at it (written beside the outputs as in :func:`_rescan`,
+    refined as there: :func:`_at_estimate`);
     otherwise the first run's outputs stay, and the summary says the default
     was kept, with the estimate's line support among the sizes tried."""
     from arstream.pipeline.pitch_scan import check_size
@@ -409,36 +409,88 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     if check.chosen != len(check.sizes) - 1:
         return kept(check)
     size = dataclasses.replace(est, scan=check)
-    last, _ = _run_beside(input, output, cameras_out, first, run, pitch=size.model(), estimate_pitch=False)
-    last.pitch, last.pitch_text = size.to_dict(), size.describe()
-    return last
+    return _at_estimate(input, output, cameras_out, first, run, size)
 
 
-def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool) -> tuple[Summary, object]:
+def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool = False, watch_pitch: bool = False, keep: Callable | None = None) -> tuple[Summary, object, list]:
     """One more run of :func:`process` (:func:`_process_once` at ``pitch``)
     written beside the outputs (:func:`_aside`), which replace them only when
     it completes: (its summary, the seconds and CPU seconds of ``before``
-    added, and the tracker's PitchSize). Stopped by a signal or failing, it
-    leaves ``before``'s outputs in place and removes its own; on a signal
-    :class:`Interrupted` carries ``before``."""
+    added; the tracker's PitchSize, with ``watch_pitch`` the size its views
+    estimate; its line supports, as :func:`_process_once`'s). ``keep``:
+    callable(those line supports) -> bool, asked when it completes: False
+    leaves ``before``'s outputs and returns ``before`` (the run's seconds
+    added). Stopped by a signal or failing, it leaves ``before``'s outputs
+    in place and removes its own; on a signal :class:`Interrupted` carries
+    ``before``."""
     aside = [(_aside(p), p) for p in (output, cameras_out) if p is not None]
-    try:
-        after, _, _, est = _process_once(input, _aside(output), _aside(cameras_out), pitch=pitch, estimate_pitch=estimate_pitch, **run)
-    except BaseException as e:
+
+    def drop():
         for tmp, _ in aside:
             with contextlib.suppress(OSError):
                 os.remove(tmp)
+
+    try:
+        after, supports, _, est = _process_once(input, _aside(output), _aside(cameras_out), pitch=pitch, estimate_pitch=estimate_pitch, watch_pitch=watch_pitch, **run)
+    except BaseException as e:
+        drop()
         if isinstance(e, Interrupted):
             before.interrupted = e.signum
             raise Interrupted(e.signum, before) from None
         raise
+    if keep is not None and not keep(supports):
+        drop()
+        before.seconds += after.seconds
+        before.cpu_seconds += after.cpu_seconds
+        return before, est, supports
     for tmp, final in aside:
         os.replace(tmp, final)
     after.output = os.fspath(output) if output is not None else None
     after.cameras = os.fspath(cameras_out) if cameras_out is not None else None
     after.seconds += before.seconds
     after.cpu_seconds += before.cpu_seconds
-    return after, est
+    return after, est, supports
+
+
+#: most runs after the last one at an estimated size (:func:`_at_estimate`),
+#: each at the size the run before's own views estimate
+REFINE_RUNS = 2
+
+
+def _at_estimate(input, output, cameras_out, before: Summary, run: dict, size) -> Summary:
+    """The last run: the whole clip tracked at ``size`` (a PitchSize estimated
+    from views made at another size), as a run given that size would, written
+    beside the outputs as :func:`_run_beside`.
+
+    Views made at a size metres off are themselves off, and so can be the
+    size estimated from them (a synthetic 107.5 x 65.5 m pitch: 107.3 x 64.8
+    from its views at 110 x 64, 4 of its standard deviations off in width,
+    drawn 6.3 px off at the median). So the run keeps its own views, made at
+    ``size``, and estimates the size again from them after the run
+    (:meth:`arstream.track.Tracker.pitch_seen`, as the first run does); while
+    that lies beyond two of its standard deviations of the size tracked
+    (:meth:`arstream.pitch_size.PitchSize.within_noise`), the clip is tracked
+    once more at it, at most :data:`REFINE_RUNS` times, and that run replaces
+    the outputs only where the paint backs its cameras no worse (a median
+    line support no lower). The views of a run at the right size estimate it
+    again (107.5 x 65.5 from the run at 107.3 x 64.8).
+    """
+    from arstream.pitch_size import _median
+
+    last, seen, supports = _run_beside(input, output, cameras_out, before, run, pitch=size.model(), watch_pitch=True)
+    last.pitch, last.pitch_text = size.to_dict(), size.describe()
+    for _ in range(REFINE_RUNS):
+        if seen is None or seen.source != "estimated" or seen.within_noise((size.length, size.width)):
+            break
+        new = dataclasses.replace(seen, scan=size.scan)
+        floor = _median(supports, 1)
+        better = lambda s: (m := _median(s, 1)) is not None and (floor is None or m >= floor)  # noqa: E731
+        after, seen, supports = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=better)
+        if after is last:
+            break
+        last, size = after, new
+        last.pitch, last.pitch_text = size.to_dict(), size.describe()
+    return last
 
 
 def _note_pitch(summary: Summary, track_box: list) -> None:

@@ -13,16 +13,20 @@ judged on the same frames, detections and tracker; when another size wins,
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass, field
 from typing import Callable
+
+import numpy as np
 
 from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, diagonal_step, grid_neighbours, with_size
-from arstream.support import frame_mask, line_support, marking_points
+from arstream.pitch_size import SizeScan, choose_size, corresponding_samples, diagonal_step, grid_neighbours, with_size
+from arstream.support import SPACING, frame_mask, line_support, marking_points, paint_dispute
 
-__all__ = ["SizeScanStage", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
+__all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
 
 #: most frames a scan tracks (a clip's first 30 s at 25 fps: the views of
 #: half a minute of play judge the size as a match's would, and each pass
@@ -55,24 +59,48 @@ class _UnlessGaveUp(Stage):
         return [] if self.scan.gave_up else [item]
 
 
+@dataclass
+class SizesTracked:
+    """What a scan's pass found at each size, frame by frame.
+
+    Attributes
+    ----------
+    supports : per size, each frame's line support (None: no camera)
+    cameras : per size, each frame's camera on the frame's pixels (None: none)
+    disputes : {(size_a, size_b): PaintDispute} summed over the frames both
+        gave a camera, for each pair of the pass's sizes and each of its sizes
+        with each earlier size (``rivals``), counting the points in view of
+        both (:func:`arstream.support.paint_dispute`, ``in_both``)
+    """
+
+    supports: list = field(default_factory=list)
+    cameras: list = field(default_factory=list)
+    disputes: dict = field(default_factory=dict)
+
+
 class SizeScanStage(Stage):
-    """Each frame tracked at several pitch sizes, its line support kept per size.
+    """Each frame tracked at several pitch sizes, its line support kept per size,
+    and each size's camera compared with every other's point for point.
 
     One :class:`arstream.track.Tracker` per size, causal (``lag`` 0: the
     scan only judges the sizes, it draws nothing), all fed the same analysis
     frame and detections; each camera judged by its line support on the
-    frame at its own size.
+    frame at its own size, and against each other size's camera of the frame
+    (this pass's, and ``rivals``', tracked by an earlier pass over the same
+    frames) by where the two lay the same markings on the frame's paint
+    (:func:`arstream.support.paint_dispute`, on the points in view of both).
 
     Parameters
     ----------
     analysis : Analysis of the clip
     sizes : sequence of (length, width) in metres
     fps : the clip's frame rate
+    rivals : optional {(length, width): cameras per frame} of earlier passes
     """
 
     name = "track"
 
-    def __init__(self, analysis: Analysis, sizes, fps: float):
+    def __init__(self, analysis: Analysis, sizes, fps: float, rivals=None):
         from arstream.initialise import FrameViews
         from arstream.track import Tracker, TrackerConfig
         from geometry.pitch import PitchModel
@@ -83,9 +111,21 @@ class SizeScanStage(Stage):
         views = FrameViews()  # (a frame's paint, made once for every size)
         self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg, views=views) for L, W in sizes]
         self.points = [marking_points(t.pitch) for t in self.trackers]
-        #: per size, each frame's line support (docs/evaluate.md, on the frame at
-        #: its own size; None: no camera)
-        self.supports: list[list] = [[] for _ in sizes]
+        self.sizes = [(float(L), float(W)) for L, W in sizes]
+        self.rivals = {tuple(map(float, k)): v for k, v in (rivals or {}).items() if tuple(map(float, k)) not in self.sizes}
+        #: each pair (earlier, later) compared: this pass's pairs and each of its sizes with each rival
+        pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i]]
+        self._samples = {}
+        for a, b in pairs:
+            pa, pb = corresponding_samples(PitchModel(*a), PitchModel(*b), SPACING)
+            self._samples[(a, b)] = (np.column_stack([pa, np.zeros(len(pa))]), np.column_stack([pb, np.zeros(len(pb))]))
+        self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {})
+
+    @property
+    def supports(self) -> list[list]:
+        """Per size, each frame's line support (docs/evaluate.md, on the frame
+        at its own size; None: no camera)."""
+        return self.tracked.supports
 
     @property
     def gave_up(self) -> bool:
@@ -104,18 +144,30 @@ class SizeScanStage(Stage):
             return []
         image = self.analysis.image(item)  # (first: it may make the thumbnail)
         mask = None
-        for tracker, points, supports in zip(self.trackers, self.points, self.supports):
+        frame = len(self.tracked.supports[0])
+        cams = {}
+        for tracker, points, size, supports, cameras in zip(self.trackers, self.points, self.sizes, self.tracked.supports, self.tracked.cameras):
             (est,) = tracker.process(item.index, item.pts, image, item.detections, thumbnail=item.thumbnail)
-            if est.camera is None:
+            cam = self.analysis.camera(est.camera)
+            cameras.append(cam)
+            if cam is None:
                 supports.append(None)
                 continue
             if mask is None:
                 mask = frame_mask(item.frame)
-            supports.append(line_support(self.analysis.camera(est.camera), mask, points).share)
+            supports.append(line_support(cam, mask, points).share)
+            cams[size] = cam
+        for (a, b), (pa, pb) in self._samples.items():
+            ca = cams.get(a) if a in cams else (self.rivals[a][frame] if a in self.rivals and frame < len(self.rivals[a]) else None)
+            cb = cams.get(b)
+            if ca is None or cb is None:
+                continue
+            d = paint_dispute(ca, pa, cb, pb, mask, in_both=True)
+            self.tracked.disputes[(a, b)] = self.tracked.disputes[(a, b)] + d if (a, b) in self.tracked.disputes else d
         return [item]
 
 
-def track_sizes(source, analysis: Analysis, sizes, *, detect_stage: Callable[[DetectStage], Stage] = lambda st: st, max_frames: int | None = None, progress: Callable | None = None, handle_signals: bool = True, decode_nice: int = 0) -> tuple[list[list], Summary]:
+def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, detect_stage: Callable[[DetectStage], Stage] = lambda st: st, max_frames: int | None = None, progress: Callable | None = None, handle_signals: bool = True, decode_nice: int = 0) -> tuple[SizesTracked, Summary]:
     """Track the clip's first frames (at most ``max_frames``) at each of ``sizes``.
 
     Parameters
@@ -123,22 +175,25 @@ def track_sizes(source, analysis: Analysis, sizes, *, detect_stage: Callable[[De
     source : an open :class:`arstream.source.VideoSource` at the clip's start
     analysis : Analysis of the clip (the size the first run analysed at)
     sizes : sequence of (length, width) in metres
+    rivals : optional {(length, width): cameras per frame} tracked by an
+        earlier pass over the same frames, to compare ``sizes``' cameras with
     detect_stage : wraps the detector's stage (e.g. on a worker thread)
     max_frames, progress, handle_signals : as for :func:`arstream.pipeline.process`
     decode_nice : niceness of the decode thread
 
     Returns
     -------
-    (per size, each frame's line support or None; the Summary of the run)
+    (SizesTracked, the Summary of the run)
 
     Raises
     ------
     Interrupted : stopped by a signal
     """
     W, H = source.width, source.height
-    scan = SizeScanStage(analysis, sizes, source.fps)
+    scan = SizeScanStage(analysis, sizes, source.fps, rivals=rivals)
     pipe = Pipeline(source, [_UnlessGaveUp(scan), detect_stage(DetectStage(W, H, analysis=analysis)), scan], progress=progress, max_frames=max_frames, decode_nice=decode_nice, prepare=analysis.prepare)
-    return scan.supports, pipe.run(handle_signals=handle_signals)
+    summary = pipe.run(handle_signals=handle_signals)
+    return scan.tracked, summary
 
 
 def _frames_limit(max_frames: int | None) -> int:
@@ -179,12 +234,12 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     limit = _frames_limit(max_frames)
     spent = [0.0, 0.0]
 
-    def track(sizes):
+    def track(sizes, rivals):
         with open_source() as src:
-            supports, summary = track_sizes(src, analysis, sizes, max_frames=limit, **kwargs)
+            got, summary = track_sizes(src, analysis, sizes, rivals=rivals, max_frames=limit, **kwargs)
         spent[0] += summary.seconds
         spent[1] += summary.cpu_seconds
-        return supports
+        return got
 
     return scan_passes(track), spent[0], spent[1]
 
@@ -192,12 +247,13 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
 def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float]:
     """One more size judged against a scan's: ``size`` tracked on the scan's
     frames by the scan's tracker, and the choice made again over every size
-    (:func:`arstream.pitch_size.with_size`).
+    (:func:`arstream.pitch_size.with_size`), its cameras compared with the
+    scan's sizes' point for point on the same frames.
 
     Parameters
     ----------
     open_source, analysis, max_frames, kwargs : as for :func:`scan_sizes`
-    scan : the SizeScan of :func:`scan_sizes` on this clip
+    scan : the SizeScan of :func:`scan_sizes` on this clip (with its cameras)
     size : (length, width) in metres, e.g. the size estimated from the
         default's views
 
@@ -210,12 +266,13 @@ def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, 
     Interrupted : stopped by a signal
     """
     limit = _frames_limit(max_frames)
+    rivals = dict(zip(scan.sizes, scan.cameras)) if scan.cameras else None
     with open_source() as src:
-        supports, summary = track_sizes(src, analysis, [tuple(size)], max_frames=limit, **kwargs)
-    return with_size(scan, size, supports[0]), summary.seconds, summary.cpu_seconds
+        got, summary = track_sizes(src, analysis, [tuple(size)], rivals=rivals, max_frames=limit, **kwargs)
+    return with_size(scan, size, got.supports[0], got.disputes, got.cameras[0]), summary.seconds, summary.cpu_seconds
 
 
-def scan_passes(track: Callable[[list], list]) -> SizeScan:
+def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
     """The scan's passes over the grid, given a way to track sizes.
 
     The first pass tracks 105 x 68 and its grid neighbours
@@ -228,30 +285,37 @@ def scan_passes(track: Callable[[list], list]) -> SizeScan:
 
     Parameters
     ----------
-    track : callable(list of (length, width)) -> one list of line supports
-        per size (a value per frame, None where that size gave no camera),
-        all of the same frames
+    track : callable(list of (length, width), {size: cameras per frame} of
+        the sizes tracked before) -> SizesTracked of those sizes (a line
+        support per frame, None where that size gave no camera, all of the
+        same frames; their disputes with each other and with the sizes
+        tracked before)
 
     Returns
     -------
-    SizeScan over every size tracked
+    SizeScan over every size tracked, with each size's cameras
     """
     from geometry.pitch import PitchModel
 
     default = PitchModel()
     tracked: dict = {}
+    cameras: dict = {}
+    disputes: dict = {}
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
     pick = None
     for first in (True, False):
         new = [s for s in todo if s not in tracked]
         if not new:
             break
-        tracked.update(zip(new, track(new)))
-        pick = choose_size(list(tracked), list(tracked.values()))  # (over every size tracked so far)
+        got = track(new, dict(cameras))
+        tracked.update(zip(new, got.supports))
+        cameras.update(zip(new, got.cameras))
+        disputes.update(got.disputes)
+        pick = choose_size(list(tracked), list(tracked.values()), disputes)  # (over every size tracked so far)
         if pick.chosen != 0:
             todo = grid_neighbours(pick.size)
         elif first and (both := diagonal_step(pick)) is not None:
             todo = [both]
         else:
             break
-    return pick
+    return dataclasses.replace(pick, cameras=tuple(cameras.get(s, ()) for s in pick.sizes))
