@@ -63,7 +63,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -632,8 +632,8 @@ def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False):
     """
 
     def dispute(j: int, k: int):
-        pj, pk = corresponding_samples(pitches[j], pitches[k], SPACING)
-        return paint_dispute(cameras[j], np.column_stack([pj, np.zeros(len(pj))]), cameras[k], np.column_stack([pk, np.zeros(len(pk))]), mask, in_both=in_both)
+        pj, pk = corresponding_points(pitches[j], pitches[k])
+        return paint_dispute(cameras[j], pj, cameras[k], pk, mask, in_both=in_both)
 
     return dispute
 
@@ -776,6 +776,33 @@ def corresponding_samples(pitch: PitchModel, other: PitchModel, spacing: float =
         return points, points.copy()
     dL, dW = size_derivatives(pitch, model)
     return points, points + dL[:, :2] * (other.length - pitch.length) + dW[:, :2] * (other.width - pitch.width)
+
+
+def corresponding_points(pitch: PitchModel, other: PitchModel, spacing: float = SPACING) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`corresponding_samples` on the pitch plane: (N, 3) float64 each,
+    pitch frame (metres, Z = 0), ready to project."""
+    a, b = corresponding_samples(pitch, other, spacing)
+    z = np.zeros((len(a), 1))
+    return np.hstack([a, z]), np.hstack([b, z])
+
+
+def compared_point_for_point(a, b, default=None) -> bool:
+    """Whether :func:`choose_size` (and :func:`diagonal_step`) may compare
+    sizes ``a`` and ``b`` (length, width) point for point: when they change
+    different numbers of the default's dimensions (the default against any
+    other, a size one step off against one two steps off). Two sizes that
+    change as many are never weighed against each other, so a scan need not
+    compare them. ``default``: (length, width), None for
+    :class:`geometry.pitch.PitchModel`'s.
+
+    >>> [compared_point_for_point(a, b) for a, b in [((105, 68), (100, 68)), ((100, 68), (110, 68)), ((100, 68), (100, 72))]]
+    [True, False, True]
+    """
+    if default is None:
+        p = PitchModel()
+        default = (p.length, p.width)
+    changed = lambda s: sum(float(s[i]) != float(default[i]) for i in (0, 1))  # noqa: E731
+    return changed(a) != changed(b)
 
 
 def estimate_pitch_size(

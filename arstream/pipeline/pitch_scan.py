@@ -17,14 +17,13 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Callable
 
-import numpy as np
 
 from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, corresponding_samples, diagonal_step, grid_neighbours, with_size
-from arstream.support import SPACING, frame_mask, line_support, marking_points, paint_dispute
+from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, with_size
+from arstream.support import frame_mask, line_support, marking_points, paint_dispute
 
 __all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
 
@@ -69,8 +68,10 @@ class SizesTracked:
     cameras : per size, each frame's camera on the frame's pixels (None: none)
     disputes : {(size_a, size_b): PaintDispute} summed over the frames both
         gave a camera, for each pair of the pass's sizes and each of its sizes
-        with each earlier size (``rivals``), counting the points in view of
-        both (:func:`arstream.support.paint_dispute`, ``in_both``)
+        with each earlier size (``rivals``) that the choice may weigh against
+        each other (:func:`arstream.pitch_size.compared_point_for_point`),
+        counting the points in view of both
+        (:func:`arstream.support.paint_dispute`, ``in_both``)
     """
 
     supports: list = field(default_factory=list)
@@ -86,6 +87,7 @@ class SizeScanStage(Stage):
     scan only judges the sizes, it draws nothing), all fed the same analysis
     frame and detections; each camera judged by its line support on the
     frame at its own size, and against each other size's camera of the frame
+    that the choice may weigh it against
     (this pass's, and ``rivals``', tracked by an earlier pass over the same
     frames) by where the two lay the same markings on the frame's paint
     (:func:`arstream.support.paint_dispute`, on the points in view of both).
@@ -113,12 +115,10 @@ class SizeScanStage(Stage):
         self.points = [marking_points(t.pitch) for t in self.trackers]
         self.sizes = [(float(L), float(W)) for L, W in sizes]
         self.rivals = {tuple(map(float, k)): v for k, v in (rivals or {}).items() if tuple(map(float, k)) not in self.sizes}
-        #: each pair (earlier, later) compared: this pass's pairs and each of its sizes with each rival
-        pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i]]
-        self._samples = {}
-        for a, b in pairs:
-            pa, pb = corresponding_samples(PitchModel(*a), PitchModel(*b), SPACING)
-            self._samples[(a, b)] = (np.column_stack([pa, np.zeros(len(pa))]), np.column_stack([pb, np.zeros(len(pb))]))
+        #: each pair (earlier, later) compared: this pass's pairs and each of its
+        #: sizes with each rival, of those the choice may weigh against each other
+        pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i] if compared_point_for_point(a, b)]
+        self._samples = {(a, b): corresponding_points(PitchModel(*a), PitchModel(*b)) for a, b in pairs}
         self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {})
 
     @property
