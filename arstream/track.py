@@ -991,7 +991,10 @@ class Tracker:
             return None, False
         if self._hann is None or self._hann.shape != grey.shape:
             self._hann = cv2.createHanningWindow(grey.shape[::-1], cv2.CV_32F)
-        (dx, dy), response = cv2.phaseCorrelate(before, grey, self._hann)
+        # (copies: OpenCV 4.x and 5.0 multiply the inputs by the window in place
+        # where their size needs no FFT padding, so the frame kept for the next
+        # call was windowed twice; 5.1 does not)
+        (dx, dy), response = cv2.phaseCorrelate(before.copy(), grey.copy(), self._hann)
         if response < 0.05:
             return None, False
         moved = np.array([dx, dy]) * (self.size[0] / grey.shape[1])

@@ -52,6 +52,20 @@ def test_the_frames_own_motion_moves_the_prediction(moved_px):
     assert np.linalg.norm(got.project(X3) - cam1.project(X3)) < 2.5 < pred_off
 
 
+def test_the_frames_own_motion_leaves_both_frames_as_they_were():
+    # the frame is the next call's frame before: OpenCV 4.x and 5.0's
+    # phaseCorrelate multiply their inputs by the window in place, so without
+    # copies each frame was windowed twice in its second call, and the
+    # tracker's cameras differed with the OpenCV release (5.1 does not)
+    cam0 = looking_at((0.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 1.4 * SIZE[0], SIZE)
+    cam1 = _panned(cam0, 12.0 / cam0.focal)
+    tr = _tracker_after(cam0)
+    g0, g1 = tr._grey(_frame(cam0, SIZE, seed=1)), tr._grey(_frame(cam1, SIZE, seed=2))
+    kept0, kept1 = g0.copy(), g1.copy()
+    tr._moved_by_image(1, cam0, g0, g1)
+    assert np.array_equal(g0, kept0) and np.array_equal(g1, kept1)
+
+
 def test_a_prediction_that_moved_as_the_frame_did_is_kept():
     cam0 = looking_at((0.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 1.4 * SIZE[0], SIZE)
     cam1 = _panned(cam0, 10.0 / cam0.focal)
