@@ -690,6 +690,86 @@ def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
 
 
+def test_a_length_its_views_leave_open_is_probed_either_side(tmp_path, monkeypatch, odd_clip):
+    # the 100 x 68 m clip's last run at 103 x 68, whose views (as a penalty
+    # view's can) are taken to leave the length open: the clip is tracked at
+    # 100 x 68 (PROBE_STEP shorter), whose views fix the length near 100;
+    # tracked there, its own views estimate that length again (a fixed
+    # point), and that run's outputs are kept, as a run given the size would
+    # write them
+    import copy
+
+    from arstream.pipeline import api, process
+    from arstream.pitch_size import PitchSize
+
+    clip, _, f = odd_clip()
+    sizes = []
+    once = api._process_once
+
+    def counted(*a, pitch, **k):
+        sizes.append((pitch.length, pitch.width))
+        return once(*a, pitch=pitch, **k)
+
+    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=None, max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    cams = tmp_path / "cams.jsonl"
+    at = PitchSize(103.0, 68.0, 0.3, 0.3, source="estimated", views=6)
+    before = copy.copy(f)
+    monkeypatch.setattr(api, "_process_once", counted)
+    s = api._probe_open(clip, None, cams, before, run, at, PitchSize(103.0, 68.0, None, 0.3, source="estimated", views=6), [0.9])
+    assert sizes[0] == (103.0 - api.PROBE_STEP, 68.0) and len(sizes) == 2, sizes
+    assert s is not before and s.pitch["source"] == "estimated" and abs(s.pitch["length"] - 100.0) < 1.0 and s.pitch["width"] == 68.0, s.pitch_text
+    assert s.pitch_text.endswith("(length left open by the views at 103 x 68: probed at 100)"), s.pitch_text
+    assert s.seconds > before.seconds and not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    given = tmp_path / "given.jsonl"
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
+
+
+def test_a_probe_the_paint_backs_worse_is_not_kept(tmp_path, odd_clip):
+    # as above, the probe's estimate tracked, but the run before's line support
+    # set above any run's: the outputs stay those of the run before
+    import copy
+
+    from arstream.pipeline import api
+    from arstream.pitch_size import PitchSize
+
+    clip, _, f = odd_clip()
+    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=None, max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    cams = tmp_path / "cams.jsonl"
+    cams.write_text("kept\n")
+    at = PitchSize(103.0, 68.0, 0.3, 0.3, source="estimated", views=6)
+    before = copy.copy(f)
+    s = api._probe_open(clip, None, cams, before, run, at, PitchSize(103.0, 68.0, None, 0.3, source="estimated", views=6), [1.01])
+    assert s is before and s.seconds > f.seconds and cams.read_text() == "kept\n"
+    assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+
+
+def test_ctrl_c_in_a_probe_keeps_the_run_before(tmp_path, odd_clip):
+    # SIGINT at frame 5 of the probe's pass: the outputs stay the run before's
+    # and the Interrupted carries its summary
+    import copy
+    import os
+    import signal
+
+    from arstream.pipeline import Interrupted, api
+    from arstream.pitch_size import PitchSize
+
+    clip, _, f = odd_clip()
+
+    def progress(done, total):
+        if done == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=progress, max_frames=None, handle_signals=True, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    cams = tmp_path / "cams.jsonl"
+    cams.write_text("kept\n")
+    before = copy.copy(f)
+    with pytest.raises(Interrupted) as e:
+        api._probe_open(clip, None, cams, before, run, PitchSize(103.0, 68.0, 0.3, 0.3, source="estimated", views=6), PitchSize(103.0, 68.0, None, 0.3, source="estimated", views=6), [0.9])
+    assert e.value.summary is before and before.interrupted == signal.SIGINT
+    assert cams.read_text() == "kept\n" and sorted(p.name for p in tmp_path.iterdir()) == ["cams.jsonl"]
+
+
 def test_an_estimate_the_paint_does_not_back_better_is_not_kept(tmp_path, monkeypatch, odd_clip):
     # a 105 x 68 m clip scanned anyway: no grid size wins, the default's estimate
     # lies within the noise of 105 x 68, and the first run's outputs stay

@@ -418,7 +418,7 @@ def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch
     it completes: (its summary, the seconds and CPU seconds of ``before``
     added; the tracker's PitchSize, with ``watch_pitch`` the size its views
     estimate; its line supports, as :func:`_process_once`'s). ``keep``:
-    callable(those line supports) -> bool, asked when it completes: False
+    callable(those line supports, that PitchSize) -> bool, asked when it completes: False
     leaves ``before``'s outputs and returns ``before`` (the run's seconds
     added). Stopped by a signal or failing, it leaves ``before``'s outputs
     in place and removes its own; on a signal :class:`Interrupted` carries
@@ -438,7 +438,7 @@ def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch
             before.interrupted = e.signum
             raise Interrupted(e.signum, before) from None
         raise
-    if keep is not None and not keep(supports):
+    if keep is not None and not keep(supports, est):
         drop()
         before.seconds += after.seconds
         before.cpu_seconds += after.cpu_seconds
@@ -484,12 +484,73 @@ def _at_estimate(input, output, cameras_out, before: Summary, run: dict, size) -
             break
         new = dataclasses.replace(seen, scan=size.scan)
         floor = _median(supports, 1)
-        better = lambda s: (m := _median(s, 1)) is not None and (floor is None or m >= floor)  # noqa: E731
-        after, seen, supports = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=better)
+        better = lambda s, _: (m := _median(s, 1)) is not None and (floor is None or m >= floor)  # noqa: E731
+        after, own, own_supports = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=better)
         if after is last:
             break
-        last, size = after, new
+        last, size, seen, supports = after, new, own, own_supports
         last.pitch, last.pitch_text = size.to_dict(), size.describe()
+    return _probe_open(input, output, cameras_out, last, run, size, seen, supports)
+
+
+#: metres either side of the size tracked at which :func:`_probe_open` tracks
+#: a clip whose views leave a dimension open
+PROBE_STEP = 3.0
+
+
+def _probe_open(input, output, cameras_out, last: Summary, run: dict, size, seen, supports) -> Summary:
+    """A dimension the views of the run at ``size`` leave open (``seen``, the
+    size they estimate: no standard deviation), probed.
+
+    A penalty-area view pins the pitch's markings near its goal and says
+    nothing of the length until the halfway line comes into view; tracked
+    at a length metres off, the frames that show it lay it beside its paint,
+    and those views do not fix the length either (a synthetic 100.5 x 72.5 m
+    pitch at 105 x 72.5: length open; at 102 or 100: 100.5 +- 0.1). So the
+    clip is tracked (no outputs) at ``PROBE_STEP`` metres either side along
+    that dimension, shorter first; where the probe's views fix it, the clip
+    is tracked at the value they estimate, and that run replaces the outputs
+    only when it is a fixed point (its own views fix the dimension at that
+    value, within two standard deviations) and the paint backs its cameras
+    no worse (a median line support no lower). Returns the summary of the
+    outputs kept, the probes' seconds added; stopped by a signal, the
+    outputs stay the run before's and :class:`Interrupted` carries its
+    summary."""
+    from arstream.pitch_size import _median, _metres
+    from geometry.pitch import PitchModel
+
+    if seen is None or seen.source != "estimated":
+        return last
+    floor = _median(supports, 1)
+    for d in (0, 1):
+        if seen.constrained[d]:
+            continue
+        for sign in (-1.0, 1.0):
+            probe = [size.length, size.width]
+            probe[d] += sign * PROBE_STEP
+            try:
+                tried, _, _, est = _process_once(input, None, None, pitch=PitchModel(*probe), watch_pitch=True, **run)
+            except Interrupted as e:  # (the outputs are the run before's, complete)
+                last.interrupted = e.signum
+                raise Interrupted(e.signum, last) from None
+            last.seconds += tried.seconds
+            last.cpu_seconds += tried.cpu_seconds
+            if est is None or est.source != "estimated" or not est.constrained[d]:
+                continue
+            value = (est.length, est.width)[d]
+            new = [size.length, size.width]
+            new[d] = value
+            new = dataclasses.replace(est, length=new[0], width=new[1], length_sd=est.length_sd if d == 0 else size.length_sd, width_sd=est.width_sd if d == 1 else size.width_sd, scan=size.scan)
+
+            def fixed(s, own, d=d, value=value):
+                m = _median(s, 1)
+                return m is not None and (floor is None or m >= floor) and own is not None and own.source == "estimated" and own.constrained[d] and abs((own.length, own.width)[d] - value) <= 2.0 * (own.length_sd, own.width_sd)[d]
+
+            after, _, _ = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=fixed)
+            if after is not last:
+                after.pitch = new.to_dict()
+                after.pitch_text = f"{new.describe()} ({('length', 'width')[d]} left open by the views at {_metres(size.length)} x {_metres(size.width)}: probed at {_metres(probe[d])})"
+                return after
     return last
 
 
