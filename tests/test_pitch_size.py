@@ -677,7 +677,7 @@ def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path
 
     clip, _, f = odd_clip()
     runs = []
-    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=lambda done, total: done == 1 and runs.append(0), max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    run = _run_options(clip, progress=lambda done, total: done == 1 and runs.append(0))
     cams = tmp_path / "cams.jsonl"
     off = PitchSize(102.5, 68.0, 0.3, 0.3, source="estimated", views=6)
     before = copy.copy(f)
@@ -710,7 +710,7 @@ def test_a_length_its_views_leave_open_is_probed_either_side(tmp_path, monkeypat
         sizes.append((pitch.length, pitch.width))
         return once(*a, pitch=pitch, **k)
 
-    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=None, max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    run = _run_options(clip)
     cams = tmp_path / "cams.jsonl"
     at = PitchSize(103.0, 68.0, 0.3, 0.3, source="estimated", views=6)
     before = copy.copy(f)
@@ -734,7 +734,7 @@ def test_a_probe_the_paint_backs_worse_is_not_kept(tmp_path, odd_clip):
     from arstream.pitch_size import PitchSize
 
     clip, _, f = odd_clip()
-    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=None, max_frames=None, handle_signals=False, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    run = _run_options(clip)
     cams = tmp_path / "cams.jsonl"
     cams.write_text("kept\n")
     at = PitchSize(103.0, 68.0, 0.3, 0.3, source="estimated", views=6)
@@ -760,7 +760,7 @@ def test_ctrl_c_in_a_probe_keeps_the_run_before(tmp_path, odd_clip):
         if done == 5:
             os.kill(os.getpid(), signal.SIGINT)
 
-    run = dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=progress, max_frames=None, handle_signals=True, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
+    run = _run_options(clip, progress=progress, handle_signals=True)
     cams = tmp_path / "cams.jsonl"
     cams.write_text("kept\n")
     before = copy.copy(f)
@@ -799,6 +799,16 @@ def test_ctrl_c_while_the_default_s_estimate_is_judged_keeps_the_first_run(tmp_p
     assert s.frames == FRAMES_ODD and s.pitch["source"] == "default" and "scan" not in s.pitch
     assert sorted(p.name for p in cams.parent.iterdir()) == ["c.jsonl", "o.mp4"]
     assert cams.read_bytes() == fixed.read_bytes()
+
+
+def _run_options(clip, *, progress=None, handle_signals: bool = False) -> dict:
+    """The run options (keyword arguments of
+    :func:`arstream.pipeline.api._process_once` but the outputs and the
+    size) of ``clip`` processed with :func:`arstream.pipeline.process`'s
+    defaults, for the tests that call its later runs directly."""
+    from arstream.pipeline import api
+
+    return dict(scene=None, lag=api.DEFAULT_LAG, crf=20, preset="veryfast", audio=False, progress=progress, max_frames=None, handle_signals=handle_signals, overlap=True, analysis_width=api.DEFAULT_ANALYSIS_WIDTH, pixel_aspect=None, threads=0, keep_b_frames=True, area=api._picture_area(clip))
 
 
 def _hold_grid(monkeypatch):
