@@ -452,6 +452,16 @@ def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch
     return after, est, supports
 
 
+def _no_lower(supports) -> Callable:
+    """A ``keep`` for :func:`_run_beside`: a run whose median line support is
+    no lower than that of ``supports`` (the run before's, as
+    :func:`_process_once` gives them; no floor where it had none)."""
+    from arstream.pitch_size import _median
+
+    floor = _median(supports, 1)
+    return lambda s, _: (m := _median(s, 1)) is not None and (floor is None or m >= floor)
+
+
 #: most runs after the last one at an estimated size (:func:`_at_estimate`),
 #: each at the size the run before's own views estimate
 REFINE_RUNS = 2
@@ -475,17 +485,13 @@ def _at_estimate(input, output, cameras_out, before: Summary, run: dict, size) -
     line support no lower). The views of a run at the right size estimate it
     again (107.5 x 65.5 from the run at 107.3 x 64.8).
     """
-    from arstream.pitch_size import _median
-
     last, seen, supports = _run_beside(input, output, cameras_out, before, run, pitch=size.model(), watch_pitch=True)
     last.pitch, last.pitch_text = size.to_dict(), size.describe()
     for _ in range(REFINE_RUNS):
         if seen is None or seen.source != "estimated" or seen.within_noise((size.length, size.width)):
             break
         new = dataclasses.replace(seen, scan=size.scan)
-        floor = _median(supports, 1)
-        better = lambda s, _: (m := _median(s, 1)) is not None and (floor is None or m >= floor)  # noqa: E731
-        after, own, own_supports = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=better)
+        after, own, own_supports = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=_no_lower(supports))
         if after is last:
             break
         last, size, seen, supports = after, new, own, own_supports
@@ -516,12 +522,16 @@ def _probe_open(input, output, cameras_out, last: Summary, run: dict, size, seen
     outputs kept, the probes' seconds added; stopped by a signal, the
     outputs stay the run before's and :class:`Interrupted` carries its
     summary."""
-    from arstream.pitch_size import _median, _metres
+    from arstream.pitch_size import _metres
     from geometry.pitch import PitchModel
 
     if seen is None or seen.source != "estimated":
         return last
-    floor = _median(supports, 1)
+    no_lower = _no_lower(supports)
+
+    def dim(p, d: int) -> tuple[float, float | None]:
+        return (p.length, p.width)[d], (p.length_sd, p.width_sd)[d]
+
     for d in (0, 1):
         if seen.constrained[d]:
             continue
@@ -537,14 +547,12 @@ def _probe_open(input, output, cameras_out, last: Summary, run: dict, size, seen
             last.cpu_seconds += tried.cpu_seconds
             if est is None or est.source != "estimated" or not est.constrained[d]:
                 continue
-            value = (est.length, est.width)[d]
-            new = [size.length, size.width]
-            new[d] = value
-            new = dataclasses.replace(est, length=new[0], width=new[1], length_sd=est.length_sd if d == 0 else size.length_sd, width_sd=est.width_sd if d == 1 else size.width_sd, scan=size.scan)
+            value = dim(est, d)[0]
+            (L, Lsd), (W, Wsd) = (dim(est if k == d else size, k) for k in (0, 1))
+            new = dataclasses.replace(est, length=L, width=W, length_sd=Lsd, width_sd=Wsd, scan=size.scan)
 
             def fixed(s, own, d=d, value=value):
-                m = _median(s, 1)
-                return m is not None and (floor is None or m >= floor) and own is not None and own.source == "estimated" and own.constrained[d] and abs((own.length, own.width)[d] - value) <= 2.0 * (own.length_sd, own.width_sd)[d]
+                return no_lower(s, own) and own is not None and own.source == "estimated" and own.constrained[d] and abs(dim(own, d)[0] - value) <= 2.0 * dim(own, d)[1]
 
             after, _, _ = _run_beside(input, output, cameras_out, last, run, pitch=new.model(), watch_pitch=True, keep=fixed)
             if after is not last:
