@@ -12,9 +12,12 @@ file with the final name is never half-written.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import math
 import os
+import subprocess
+import sys
 from fractions import Fraction
 
 import av
@@ -22,7 +25,59 @@ import numpy as np
 
 from arstream.errors import InputError
 
-__all__ = ["VideoSink", "JsonlWriter", "read_jsonl", "atomic_path"]
+__all__ = ["VideoSink", "JsonlWriter", "read_jsonl", "atomic_path", "x264_capabilities", "x264_reproducible_params"]
+
+#: Opens a tiny libx264 encoder with FFmpeg's log captured and prints the CPU
+#: capabilities x264 reports (``using cpu capabilities: MMX2 SSE2Fast ...``).
+_X264_PROBE = """
+import os, tempfile, av, av.logging
+av.logging.set_level(av.logging.INFO)
+with tempfile.TemporaryDirectory() as d, av.logging.Capture(True) as logs:
+    with av.open(os.path.join(d, "probe.mp4"), "w") as out:
+        s = out.add_stream("libx264", rate=25)
+        s.width = s.height = 64
+        s.pix_fmt = "yuv420p"
+        s.codec_context.open()
+for _, name, msg in logs:
+    if name == "libx264" and msg.startswith("using cpu capabilities:"):
+        print(msg.split(":", 1)[1].strip())
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def x264_capabilities() -> tuple[str, ...]:
+    """libx264's CPU capabilities on this processor, as x264 names them when an
+    encoder opens (e.g. ``("MMX2", "SSE2Fast", ..., "AVX2", "AVX512")``); ``()``
+    where they cannot be learnt.
+
+    x264 says them only in FFmpeg's log. The probe runs once per process, in
+    a child process: capturing FFmpeg's log in this one routes every
+    decoder's log through Python while it lasts, and freeing a
+    frame-threaded decoder whose thread then waits for the GIL hangs the
+    process (PyAV issues #909 and #367)."""
+    try:
+        r = subprocess.run([sys.executable, "-c", _X264_PROBE], capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.SubprocessError):
+        return ()
+    return tuple(r.stdout.split()) if r.returncode == 0 else ()
+
+
+def x264_reproducible_params() -> str | None:
+    """libx264's ``x264-params`` for an encode that gives the same bytes on every
+    run: its CPU capabilities less AVX-512 (``"asm=MMX2,SSE2Fast,...,AVX2"``),
+    or None where x264 uses no AVX-512 here (its choice is then reproducible).
+
+    x264's AVX-512 code reads memory it never wrote at some frame sizes
+    (320 x 180, 720 x 576, 1366 x 768; not 1280 x 720 or 1920 x 1080), so two
+    encodes of the same pictures may differ in a few pixels; without it they
+    do not, for about 6 % more x264 CPU at 720p (bench/README.md,
+    "Reproducible encodes"). The list is the processor's own: ``asm=``
+    replaces x264's detection, and a capability the processor lacks would
+    crash the encoder."""
+    caps = x264_capabilities()
+    if not any(c.upper().startswith("AVX512") for c in caps):
+        return None
+    return "asm=" + ",".join(c for c in caps if not c.upper().startswith("AVX512"))
 
 
 def atomic_path(path: str) -> str:
@@ -94,6 +149,13 @@ class VideoSink:
         limit, or a preset without B-frames) is made a P by x264 itself.
     sample_aspect : Fraction, optional, the pixels' aspect ratio written into
         the stream (width over height of one pixel; None: leave it unset, 1:1)
+    reproducible : bool
+        Encode the same frames to the same bytes on every run
+        (:func:`x264_reproducible_params`: x264 without its AVX-512 code, about
+        6 % more x264 CPU at 720p). The synthetic clips are made so, since
+        benchmarks and tests compare runs on them; ``arstream process`` is
+        not (its frames and cameras are reproducible, x264's bytes at some
+        sizes not).
     """
 
     def __init__(
@@ -110,6 +172,7 @@ class VideoSink:
         threads: int = 0,
         keep_b_frames: bool = True,
         sample_aspect: Fraction | None = None,
+        reproducible: bool = False,
     ):
         self.path = os.fspath(path)
         if width <= 0 or height <= 0:
@@ -134,7 +197,8 @@ class VideoSink:
         self.time_base = Fraction(time_base) if time_base else Fraction(1, 1) / self.rate
         self.stream.time_base = self.time_base
         self.stream.codec_context.time_base = self.time_base
-        self.stream.options = {"crf": str(crf), "preset": preset}
+        params = x264_reproducible_params() if reproducible else None
+        self.stream.options = {"crf": str(crf), "preset": preset, **({"x264-params": params} if params else {})}
         if sample_aspect is not None:
             self.stream.codec_context.sample_aspect_ratio = Fraction(sample_aspect)  # e.g. 64:45, anamorphic 16:9 PAL
         self.stream.codec_context.thread_count = threads

@@ -1141,7 +1141,7 @@ def generate(out_dir, *, preset: str = "wide", seed: int = 0, frames: int = 250,
     sar = clip.pixel_aspect if clip.pixel_aspect != 1 else None
     os.makedirs(out_dir, exist_ok=True)
     t0 = time.perf_counter()
-    with VideoSink(os.path.join(out_dir, "clip.mp4"), w, h, fps, crf=crf, preset="veryfast", sample_aspect=sar) as sink, JsonlWriter(os.path.join(out_dir, "truth.jsonl")) as truth:
+    with VideoSink(os.path.join(out_dir, "clip.mp4"), w, h, fps, crf=crf, preset="veryfast", sample_aspect=sar, reproducible=True) as sink, JsonlWriter(os.path.join(out_dir, "truth.jsonl")) as truth:
         for i in range(clip.n):
             sink.write(clip.render(i), pts=i / fps)
             truth.write(clip.truth(i).to_record())

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import functools
 import json
 import os
 import statistics
@@ -32,41 +31,10 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+from arstream.sink import x264_capabilities, x264_reproducible_params  # noqa: E402
 PERTURB = (None, "85", "170")
-
-
-def capabilities() -> list[str]:
-    """x264's CPU capabilities on this machine, as it reports them when an encoder
-    opens (probed once per process).
-
-    PyAV's logging is turned on for the probe and back to its previous level
-    after it: left on, FFmpeg's frame-threaded decoders call into Python to
-    log, and freeing such a decoder while one of its threads waits for the
-    GIL hangs the process (PyAV issues #909 and #367; a test run hung so
-    here after a test made an x264 copy)."""
-    return list(_capabilities())
-
-
-@functools.lru_cache(maxsize=1)
-def _capabilities() -> tuple[str, ...]:
-    import av
-    import av.logging
-
-    previous = av.logging.get_level()
-    av.logging.set_level(av.logging.INFO)
-    try:
-        with tempfile.TemporaryDirectory() as d, av.logging.Capture(True) as logs:
-            with av.open(os.path.join(d, "probe.mp4"), "w") as out:
-                s = out.add_stream("libx264", rate=25)
-                s.width = s.height = 64
-                s.pix_fmt = "yuv420p"
-                s.codec_context.open()
-    finally:
-        av.logging.set_level(previous)
-    for _, name, msg in logs:
-        if name == "libx264" and msg.startswith("using cpu capabilities:"):
-            return tuple(msg.split(":", 1)[1].split())
-    raise SystemExit("libx264 did not report its CPU capabilities")
 
 
 def child(clip: str, asm: str) -> None:
@@ -129,10 +97,13 @@ def main() -> None:
     if args.child:
         child(args.clip, args.child)
         return
-    caps = capabilities()
+    caps = x264_capabilities()
+    if not caps:
+        raise SystemExit("libx264 did not report its CPU capabilities")
     settings = {"auto": "auto"}
-    if "AVX512" in caps:
-        settings["without AVX-512"] = ",".join(c for c in caps if c != "AVX512")
+    params = x264_reproducible_params()
+    if params:
+        settings["without AVX-512"] = params.removeprefix("asm=")
     else:
         print("this CPU has no AVX-512 (x264 reports: " + " ".join(caps) + "): one setting only", file=sys.stderr)
     sample = os.path.join(ROOT, "samples", "wide", "clip.mp4")

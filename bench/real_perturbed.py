@@ -44,10 +44,10 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from arstream.evaluate_video import evaluate_video  # noqa: E402
 from arstream.pipeline import process  # noqa: E402
+from arstream.sink import x264_reproducible_params  # noqa: E402
 from arstream.source import i420_planes  # noqa: E402
 from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
-from encoder_reproducibility import capabilities  # noqa: E402
 from arstream.evaluate import distance_1280  # noqa: E402
 from real_footage import SHARED, _fmt, pitch_args, references  # noqa: E402
 from real_graphics import dim, soft  # noqa: E402
@@ -136,8 +136,8 @@ def x264_options(crf: int) -> dict:
     """libx264's options for the same bytes on every processor: ``crf``, preset
     fast, without its AVX-512 code, which at some frame sizes reads memory it
     never wrote (bench/README.md, "Reproducible encodes")."""
-    asm = ",".join(c for c in capabilities() if not c.upper().startswith("AVX512"))
-    return {"crf": str(crf), "preset": "fast", "x264-params": f"asm={asm}"}
+    params = x264_reproducible_params()
+    return {"crf": str(crf), "preset": "fast", **({"x264-params": params} if params else {})}
 
 
 def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264", look=None) -> Path:
