@@ -476,7 +476,12 @@ def choose_size(sizes, supports, disputes=None) -> SizeScan:
     higher than the default, with medians within :data:`SCAN_MARGIN` of each
     other, is inconclusive (a pitch is not both shorter and longer: the
     clip's support does not tell its sizes apart, e.g. a low-resolution clip
-    of long-lens views), and no size that changes it is chosen. Of the sizes
+    of long-lens views), and no size that changes it is chosen; unless a
+    size on one side (of any width, for the length: the estimate from the
+    views, between the grid's points) has a median above every one of those
+    on the other side by the margin, which tells the side (a 100.5 x 67 m
+    pitch: 100 x 68 0.94 and 110 x 68 0.92 over 105 x 68's 0.87, its
+    views' 101.2 x 67.1 0.99). Of the sizes
     left, the nearest to the default on the grid (fewest dimensions changed;
     of those, the highest median) is taken, and a farther one replaces it
     only when it is higher than that one too: a size two steps off must
@@ -517,13 +522,19 @@ def choose_size(sizes, supports, disputes=None) -> SizeScan:
         return o is None or med[o] is None or not leans_above(supports[0], supports[o], _dispute(disputes, d, sizes[o]))
 
     up = [k > 0 and up(k) for k in range(len(sizes))]
+
+    def one_side(a: int, against: list) -> bool:
+        # (a size on one side of the default along ``a`` above every size of ``against``, on the other, by the margin)
+        side = np.sign(sizes[against[0]][a] - d[a])
+        return any(up[k] and np.sign(sizes[k][a] - d[a]) == -side and all(med[k] >= med[j] + SCAN_MARGIN for j in against) for k in range(1, len(sizes)))
+
     open_axes = []
     for a in (0, 1):
         # (the evidence against a dimension counts a size on fewer frames too)
         along = [k for k in range(1, len(sizes)) if up[k] and sizes[k][1 - a] == d[1 - a]]
-        lo = [med[k] for k in along if sizes[k][a] < d[a]]
-        hi = [med[k] for k in along if sizes[k][a] > d[a]]
-        if lo and hi and abs(max(lo) - max(hi)) < SCAN_MARGIN:
+        lo = [k for k in along if sizes[k][a] < d[a]]
+        hi = [k for k in along if sizes[k][a] > d[a]]
+        if lo and hi and abs(max(med[k] for k in lo) - max(med[k] for k in hi)) < SCAN_MARGIN and not (one_side(a, lo) or one_side(a, hi)):
             open_axes.append(a)
     changed = lambda k: sum(sizes[k][a] != d[a] for a in (0, 1))  # noqa: E731
     left = [k for k in range(1, len(sizes)) if up[k] and cov[k] >= cov[0] - 0.05 and all(sizes[k][a] == d[a] for a in open_axes)]

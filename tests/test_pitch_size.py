@@ -180,8 +180,37 @@ def test_an_open_dimension_leaves_the_other_to_choose():
     from arstream.pitch_size import choose_size
 
     sizes = [(105, 68), (100, 68), (110, 68), (105, 64), (105, 72), (100, 72)]
-    got = choose_size(sizes, [_sup(m) for m in (0.80, 0.90, 0.91, 0.70, 0.88, 0.99)])
+    got = choose_size(sizes, [_sup(m) for m in (0.80, 0.90, 0.91, 0.70, 0.88, 0.95)])
     assert got.size == (105.0, 72.0)
+
+
+@pytest.mark.parametrize(
+    "estimate, chosen",
+    [
+        # real-wide 32 (a 100.5 x 67 m pitch): 100 and 110 m both above 105 x 68, within the margin of
+        # each other, and the views' estimate above 110 by more than it: the length is shorter
+        ((101.2, 67.1, 0.99), (101.2, 67.1)),
+        ((101.2, 67.1, 0.96), (105, 68)),  # above 110 x 68 by less than the margin: the length stays open
+        ((108.0, 67.1, 0.995), (108.0, 67.1)),  # the other side
+        ((101.2, 68.0, 0.99), (101.2, 68.0)),  # the estimate along the length alone
+    ],
+)
+def test_a_size_above_the_other_side_tells_an_open_dimension(estimate, chosen):
+    from arstream.pitch_size import choose_size
+
+    sizes = [(105, 68), (100, 68), (110, 68), (105, 64), (105, 72), estimate[:2]]
+    got = choose_size(sizes, [_sup(m) for m in (0.87, 0.94, 0.92, 0.77, 0.83, estimate[2])])
+    assert got.size == chosen
+
+
+def test_a_grid_size_on_the_side_the_estimate_tells_is_taken_first():
+    # the estimate tells the length is shorter, and 100 x 68 (one step, the nearer) is
+    # not beaten by it by the margin: 100 x 68 (the run from it estimates the size again)
+    from arstream.pitch_size import choose_size
+
+    sizes = [(105, 68), (100, 68), (110, 68), (105, 64), (105, 72), (101.2, 67.1)]
+    got = choose_size(sizes, [_sup(m) for m in (0.87, 0.96, 0.94, 0.77, 0.83, 0.995)])
+    assert got.size == (100.0, 68.0)
 
 
 # a still's scan: the default first, then the grid's other sizes (lengths, then widths)

@@ -332,8 +332,6 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     :class:`Interrupted` carries its summary). The summary's seconds and CPU
     seconds are all the runs'."""
     from arstream.pipeline.pitch_scan import scan_sizes
-    from arstream.pitch_size import PitchSize
-    from geometry.pitch import PitchModel
 
     try:
         scan, scan_s, scan_cpu = scan_sizes(analysis=an, **_scan_options(input, run))
@@ -344,6 +342,17 @@ def _rescan(input, output, cameras_out, first: Summary, an: Analysis, run: dict)
     first.cpu_seconds += scan_cpu
     if scan.chosen == 0:
         return _estimate_from_default(input, output, cameras_out, first, an, run, scan)
+    return _at_scanned(input, output, cameras_out, first, run, scan)
+
+
+def _at_scanned(input, output, cameras_out, first: Summary, run: dict, scan) -> Summary:
+    """The clip run again at the grid size ``scan`` chose (written beside the
+    outputs, :func:`_run_beside`), estimating the size from the views its
+    cameras lay on their paint; at the estimate, when it is another size,
+    :func:`_at_estimate`. (:func:`_rescan`'s tail.)"""
+    from arstream.pitch_size import PitchSize
+    from geometry.pitch import PitchModel
+
     second, est, _ = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(*scan.size), estimate_pitch=True)
     estimated = est is not None and est.source == "estimated"
     size = dataclasses.replace(est, scan=scan) if estimated else PitchSize(*scan.size, source="scanned", views=scan.frames, scan=scan)
@@ -380,9 +389,13 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     estimate can be metres off (``docs/real-footage.md``), and only a size
     the paint backs better than the default is kept. Kept, a last run tracks
     the whole clip at it (written beside the outputs as in :func:`_rescan`,
-    refined as there: :func:`_at_estimate`);
-    otherwise the first run's outputs stay, and the summary says the default
-    was kept, with the estimate's line support among the sizes tried."""
+    refined as there: :func:`_at_estimate`). Where the estimate tells a
+    dimension the grid left open (higher than the grid's sizes on the other
+    side of the default, :func:`arstream.pitch_size.choose_size`) and a grid
+    size on its side wins, the clip runs from that size as after a scan that
+    chose it (:func:`_at_scanned`). Otherwise the first run's outputs stay,
+    and the summary says the default was kept, with the estimate's line
+    support among the sizes tried."""
     from arstream.pipeline.pitch_scan import check_size
     from arstream.pitch_size import PitchSize
     from geometry.pitch import PitchModel
@@ -406,8 +419,12 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         raise Interrupted(e.signum, first) from None
     first.seconds += check_s
     first.cpu_seconds += check_cpu
-    if check.chosen != len(check.sizes) - 1:
+    if check.chosen == 0:
         return kept(check)
+    if check.chosen != len(check.sizes) - 1:
+        # (the estimate, higher than the grid's sizes on the other side of the default, told a
+        # dimension the grid left open; a grid size on its side is nearer the default, and won)
+        return _at_scanned(input, output, cameras_out, first, run, check)
     size = dataclasses.replace(est, scan=check)
     return _at_estimate(input, output, cameras_out, first, run, size)
 
