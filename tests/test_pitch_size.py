@@ -668,6 +668,33 @@ def test_with_no_grid_size_winning_the_default_s_estimate_is_judged(tmp_path, mo
     assert sc.coverage >= 0.95 and sc.median < 1.0, sc
 
 
+def test_a_grid_size_the_estimate_s_check_chooses_is_run_as_a_scan_s(tmp_path, monkeypatch, odd_clip):
+    # the scan held as above; the check of the default's estimate chooses a grid
+    # size, not the estimate (as where the estimate tells a dimension the grid
+    # left open and a grid size on its side beats it): the clip is run from that
+    # size as after a scan that chose it, its size estimated from its views
+    # there, and the outputs are a run's at that estimate
+    import dataclasses
+
+    import arstream.pipeline.pitch_scan as pitch_scan
+    from arstream.pipeline import process
+
+    clip, _, _ = odd_clip()
+    _hold_grid(monkeypatch)
+    check_size = pitch_scan.check_size
+    monkeypatch.setattr(pitch_scan, "check_size", lambda **kw: (lambda got: (dataclasses.replace(got[0], chosen=1),) + got[1:])(check_size(**kw)))
+    cams = tmp_path / "cams.jsonl"
+    s = process(clip, cameras_out=cams, handle_signals=False)
+    scan = s.pitch["scan"]
+    assert scan["chosen"] == 1 and scan["sizes"][1] == [110.0, 68.0] and len(scan["sizes"]) == 4, s.pitch_text
+    assert s.pitch["source"] == "estimated" and abs(s.pitch["length"] - 100.0) <= 1.0 and abs(s.pitch["width"] - 68.0) <= 1.0, s.pitch_text
+    assert "; from 110 x 68, chosen by line support on 30 frames: " in s.pitch_text, s.pitch_text
+    assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    given = tmp_path / "given.jsonl"
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
+
+
 def test_the_scan_compares_two_sizes_cameras_point_for_point_across_passes(odd_clip):
     # the 100 x 68 m clip tracked at 105 x 68 and 100 x 68 in one pass: on
     # the points of the same markings in view of both cameras, the 100 m
