@@ -111,17 +111,19 @@ def test_reencode_makes_the_same_bytes_twice(tmp_path):
 
 @pytest.mark.parametrize("level", [None, "WARNING"])
 def test_the_x264_probe_leaves_pyavs_logging_as_it_was(level):
-    # the probe turns PyAV's logging on to read x264's report; left on, a
-    # frame-threaded decoder freed while one of its threads waits to log
-    # hangs the process (the suite hung so after a test made an x264 copy)
+    # the probe reads x264's report from FFmpeg's log in a child process; this
+    # process's PyAV logging, left on, lets a frame-threaded decoder freed
+    # while one of its threads waits to log hang the process (the suite hung
+    # so after a test made an x264 copy)
     import av.logging
-    from encoder_reproducibility import _capabilities, capabilities
+
+    from arstream.sink import x264_capabilities
 
     before = av.logging.get_level()
     try:
         av.logging.set_level(None if level is None else getattr(av.logging, level))
-        _capabilities.cache_clear()
-        caps = capabilities()
+        x264_capabilities.cache_clear()
+        caps = x264_capabilities()
         assert caps and all(isinstance(c, str) for c in caps)
         assert av.logging.get_level() == (None if level is None else getattr(av.logging, level))
     finally:
