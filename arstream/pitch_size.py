@@ -522,19 +522,18 @@ def choose_size(sizes, supports, disputes=None) -> SizeScan:
         return o is None or med[o] is None or not leans_above(supports[0], supports[o], _dispute(disputes, d, sizes[o]))
 
     up = [k > 0 and up(k) for k in range(len(sizes))]
-
-    def one_side(a: int, against: list) -> bool:
-        # (a size on one side of the default along ``a`` above every size of ``against``, on the other, by the margin)
-        side = np.sign(sizes[against[0]][a] - d[a])
-        return any(up[k] and np.sign(sizes[k][a] - d[a]) == -side and all(med[k] >= med[j] + SCAN_MARGIN for j in against) for k in range(1, len(sizes)))
-
     open_axes = []
     for a in (0, 1):
         # (the evidence against a dimension counts a size on fewer frames too)
         along = [k for k in range(1, len(sizes)) if up[k] and sizes[k][1 - a] == d[1 - a]]
-        lo = [k for k in along if sizes[k][a] < d[a]]
-        hi = [k for k in along if sizes[k][a] > d[a]]
-        if lo and hi and abs(max(med[k] for k in lo) - max(med[k] for k in hi)) < SCAN_MARGIN and not (one_side(a, lo) or one_side(a, hi)):
+        lo = [med[k] for k in along if sizes[k][a] < d[a]]
+        hi = [med[k] for k in along if sizes[k][a] > d[a]]
+
+        def beyond(side: float, top: float, a: int = a) -> bool:
+            # (a size on ``side`` of the default along ``a``, of any other dimension, above ``top`` by the margin)
+            return any(up[k] and np.sign(sizes[k][a] - d[a]) == side and med[k] >= top + SCAN_MARGIN for k in range(1, len(sizes)))
+
+        if lo and hi and abs(max(lo) - max(hi)) < SCAN_MARGIN and not (beyond(-1.0, max(hi)) or beyond(1.0, max(lo))):
             open_axes.append(a)
     changed = lambda k: sum(sizes[k][a] != d[a] for a in (0, 1))  # noqa: E731
     left = [k for k in range(1, len(sizes)) if up[k] and cov[k] >= cov[0] - 0.05 and all(sizes[k][a] == d[a] for a in open_axes)]
