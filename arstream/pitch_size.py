@@ -502,7 +502,14 @@ def choose_size(sizes, supports, disputes=None) -> SizeScan:
     def higher(j: int, k: int) -> bool:
         # (a size without a median, its tracker lost on most frames, is no
         # baseline: the scan's trackers cannot follow this clip there)
-        return med[j] is not None and med[k] is not None and (med[k] >= med[j] + SCAN_MARGIN or higher_throughout(supports[j], supports[k]) or paint_prefers(_dispute(disputes, sizes[j], sizes[k])))
+        # (the paired test and the point-for-point one settle sizes whose medians are within the
+        # margin; they do not overturn a median lower by more: a wrong size's cameras can lay the
+        # points they dispute on bright lines of another sport)
+        if med[j] is None or med[k] is None:
+            return False
+        if med[k] >= med[j] + SCAN_MARGIN:
+            return True
+        return med[k] > med[j] - SCAN_MARGIN and (higher_throughout(supports[j], supports[k]) or paint_prefers(_dispute(disputes, sizes[j], sizes[k])))
 
     def opposite(k: int) -> int | None:
         # (the size on the other side of the default along the one dimension k changes)

@@ -41,9 +41,29 @@ SCAN_MAX_FRAMES = 750
 SCAN_PAINT_SECONDS = 1.0
 
 
-#: frames after which a scan whose default tracker has a camera on fewer
-#: than half of them stops (:attr:`SizeScanStage.gave_up`)
+#: a size's scan tracker that, from its first camera on, has one on fewer
+#: than half of this many frames does not follow the clip
+#: (:attr:`SizeScanStage.gave_up`)
 SCAN_GIVE_UP_FRAMES = 50
+
+#: a size's scan tracker that has found no camera in this many frames does
+#: not follow the clip: it initialises less often than the run it judges
+#: (once in :data:`SCAN_PAINT_SECONDS`), so its first camera may come a
+#: second or two after the run's, but not six
+SCAN_FIRST_CAMERA_FRAMES = 150
+
+
+def _not_following(supports) -> bool:
+    """Whether a scan's tracker of one size does not follow the clip:
+    ``supports`` its frames' line supports so far (None: no camera), and it
+    has found no camera in :data:`SCAN_FIRST_CAMERA_FRAMES` frames, or has
+    one on fewer than half of the :data:`SCAN_GIVE_UP_FRAMES` frames from its
+    first camera on."""
+    start = next((i for i, x in enumerate(supports) if x is not None), None)
+    if start is None:
+        return len(supports) >= SCAN_FIRST_CAMERA_FRAMES
+    window = supports[start : start + SCAN_GIVE_UP_FRAMES]
+    return len(window) == SCAN_GIVE_UP_FRAMES and sum(x is not None for x in window) < SCAN_GIVE_UP_FRAMES / 2
 
 
 class _UnlessGaveUp(Stage):
@@ -129,15 +149,16 @@ class SizeScanStage(Stage):
 
     @property
     def gave_up(self) -> bool:
-        """The default size's tracker (the first) has a camera on fewer than
-        half of the first :data:`SCAN_GIVE_UP_FRAMES` frames: it cannot follow
-        this clip, there is no baseline to judge the others by
-        (:func:`arstream.pitch_size.choose_size` keeps the default), and the
-        scan stops tracking."""
-        first = self.supports[0] if self.supports else []
-        if len(first) < SCAN_GIVE_UP_FRAMES:
-            return False
-        return sum(x is not None for x in first[:SCAN_GIVE_UP_FRAMES]) < SCAN_GIVE_UP_FRAMES / 2
+        """No size's tracker follows this clip (:func:`_not_following`), so
+        the scan stops tracking: there is nothing to judge the sizes by
+        (:func:`arstream.pitch_size.choose_size` keeps the default). Judged
+        over every size, not only the default's: a wrong size loses the
+        camera where the paint refutes it (a synthetic 104.5 x 74.5 m pitch:
+        at 105 x 68 a camera on 8 of the first 125 frames, at 105 x 72 on 50,
+        the size that wins), and judged from each tracker's first camera, not
+        the clip's first frame (the scan's trackers initialise once a
+        second)."""
+        return bool(self.supports) and all(_not_following(s) for s in self.supports)
 
     def process(self, item: Item) -> list[Item]:
         if self.gave_up:
