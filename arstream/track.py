@@ -109,6 +109,9 @@ class TrackerConfig:
     min_trusted: float = 0.55  # ... or this much within max_coast frames of one that had it (blur hides paint; above the output test's 0.5 by the tracker's sampling of it)
     smooth_slack: float = 0.1  # a smoothed camera this much less supported than the filter's own is not output
     paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
+    sure: float = 0.85  # offline, real frames: line support of a camera carried back over the held frames before it (Tracker._carry_back) ...
+    carry_gain: float = 0.05  # ... replacing each camera it lays on paint better by this much (and each frame without one) ...
+    carry_hold: float = 2.0  # ... which are held (seconds beyond the lag) while they wait for such a camera
     manoeuvre: float = 3.0  # ... but not while the frame's own motion changes pace by more than this (px/frame, analysis frame): a whip pan
     pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
     pitch_spacing: int = 5  # frames between two views for the size estimate
@@ -329,6 +332,7 @@ class Tracker:
         self._judged: dict = {}  # id(camera) -> (frame, camera, its _support) of this frame's cameras judged
         self._last_f = None
         self._window: deque = deque()
+        self._hold = int(round(self.cfg.carry_hold * self.fps)) if self.lag else 0
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
         self._image: np.ndarray | None = None  # the frame being solved (for the line-support gate)
         self._unsupported = 0  # consecutive frames whose camera the paint did not back
@@ -476,16 +480,28 @@ class Tracker:
                 self._width_at.pop(k, None)
         if self.lag == 0:
             return [self._final(est)]
-        if self._paint and est.status == "ok" and est.info.get("source") in ("paint", "init"):
-            self._backfill(est)
+        if self._paint and image is not None and "image" not in est.info and (est.camera is None or self._weak(est)):
+            est.info["image"] = image.copy()  # (while held: a later camera may better it, _carry_back)
         self._window.append(est)
+        if self._paint:
+            self._carry_back(len(self._window) - 2)  # (its successor known now: the motion to carry back)
         out = []
-        while len(self._window) > self.lag:
+        while len(self._window) > self.lag and not (len(self._window) <= self.holds and self._waits(self._window[0])):
             out.append(self._final(self._smooth_pop()))
         return out
 
+    @property
+    def holds(self) -> int:
+        """The most frames whose estimates are not final yet: ``lag``, and
+        offline on real frames ``cfg.carry_hold`` seconds more while the
+        oldest waits for a camera to be carried back to it
+        (:meth:`_carry_back`)."""
+        return self.lag + self._hold
+
     def flush(self) -> list[CameraEstimate]:
         """Emit the estimates still held by the offline smoother."""
+        if self._paint:
+            self._carry_back(len(self._window) - 1)
         out = []
         while self._window:
             out.append(self._final(self._smooth_pop()))
@@ -700,7 +716,7 @@ class Tracker:
             self.reset()
             lost = CameraEstimate.lost(index, pts, reason="no camera")
             if self.lag and image is not None:
-                lost.info["image"] = image.copy()  # (while held: a later camera may reach it, _backfill)
+                lost.info["image"] = image.copy()  # (while held: a later camera may reach it, _carry_back)
             return lost
         self._learn(meas, lidx)
         if self._paint and self.centre is not None and self._kf is not None and source in ("track", "flow") and index - self._centre_check_at >= self.cfg.centre_every:
@@ -1061,7 +1077,8 @@ class Tracker:
     def _keep_mask(self, index: int, mask: np.ndarray) -> np.ndarray:
         """Keep frame ``index``'s line-support mask while the smoother holds the frame."""
         self._bright[index] = mask
-        for k in [k for k in self._bright if k < index - self.lag - 2]:
+        oldest = min(index - self.lag, self._window[0].frame if self._window else index)
+        for k in [k for k in self._bright if k < oldest - 2]:
             del self._bright[k]
         return mask
 
@@ -1101,44 +1118,90 @@ class Tracker:
             return True
         return source not in ("init", "paint") and sup >= self.cfg.min_trusted and index - self._supported_at <= self.cfg.max_coast
 
-    def _backfill(self, est: CameraEstimate) -> None:
-        """Offline, on real frames: a camera found afresh (``est``) is carried
-        back over the frames just before it that got none and are still held
-        (the paint initialiser runs every few frames while lost, and a camera
-        found at frame k would otherwise leave the frames since the last try
-        without one). Each is refined from the later frame's camera against
-        its own paint (about the tripod centre once frozen) and kept while
-        its paint backs it, as a measured camera would be."""
-        cam = est.camera
-        frame = est.frame
+    def _weak(self, est: CameraEstimate) -> bool:
+        """Whether a later camera carried back may better ``est``
+        (:meth:`_carry_back`): it has no camera (its picture kept), or one its
+        paint backs below ``cfg.sure``."""
+        if est.camera is None:
+            return "image" in est.info
+        sup = est.info.get("support")
+        return sup is not None and sup < self.cfg.sure
+
+    def _waits(self, est: CameraEstimate) -> bool:
+        """Whether the held ``est`` waits for a camera to be carried back to it
+        (:meth:`_carry_back`): one backed at ``cfg.sure`` has not been yet."""
+        return self._paint and "image" in est.info and est.info.get("carried", 0.0) < self.cfg.sure and self._weak(est)
+
+    def _carry_back(self, at: int) -> None:
+        """Offline, on real frames: the camera of the held estimate ``at`` (a
+        position in the window), when found afresh or backed by its paint at
+        ``cfg.sure`` or more, is carried back over the frames just before it
+        that are still held and were left without a camera or with a weaker
+        one (:meth:`_weak`). Each is refined against its own paint from the
+        later frame's camera moved on by the motion between the two frames
+        after it (:class:`_CameraStep`: the pan goes on), about the tripod
+        centre once frozen; the walk stops at the first frame whose paint does
+        not back its refinement, at a frame backed at ``cfg.sure``, or at one
+        walked over before from a camera backed as well (within
+        ``cfg.carry_gain``: a later, better-backed camera walks again over
+        the frames an earlier one carried its view to). A frame takes the refined camera when it had none
+        or when its paint backs the refinement by ``cfg.carry_gain`` more than
+        its own.
+
+        Why: the paint initialiser runs every few frames while lost, and a
+        camera found at frame k would otherwise leave the frames since the
+        last try without one; and where a clip opens on a view its paint
+        explains poorly (the centre circle in deep shadow, the markings beside
+        another sport's lines), the filter starts from a camera the paint
+        backs at 0.55-0.8 and takes a second or more to find the view, while
+        the later, well-backed camera carried back lays each frame's markings
+        on their paint (a synthetic opening of 37 frames: 20-35 px off -> 1.5
+        px)."""
+        if at < 0 or at >= len(self._window):
+            return
+        seed = self._window[at]
+        fresh = seed.info.get("source") in ("paint", "init")
+        if seed.status != "ok" or seed.camera is None or seed.info.get("seeded") or not (fresh or (seed.info.get("support") or 0.0) >= self.cfg.sure):
+            return
+        seed.info["seeded"] = True
+        backing = seed.info.get("support") or 0.0
+        after = self._window[at + 1] if at + 1 < len(self._window) else None
+        nxt = after.camera if after is not None and after.frame == seed.frame + 1 else None
+        cam, frame = seed.camera, seed.frame
         # (about the frozen centre, else the found camera's own: the main camera
         # does not leave its tripod between frames, and free poses of views the
         # paint backs poorly slide along their lines of sight)
         centre = self.centre if self.centre is not None else cam.center
-        for j in range(len(self._window) - 1, -1, -1):
+        for j in range(at - 1, -1, -1):
             prev = self._window[j]
             img = prev.info.get("image")
-            if prev.status != "lost" or img is None or prev.frame != frame - 1:
+            if img is None or prev.frame != frame - 1 or not self._weak(prev) or backing < prev.info.get("carried", -1.0) + self.cfg.carry_gain:
                 break
+            prev.info["carried"] = backing
+            guess = cam if nxt is None else _CameraStep.between(nxt, cam).apply(cam, 1.0)
             view = paint_view(img, None, reach=self.support_reach)
             try:
-                r = refine_camera(cam, view.index, self.size, self.model, center=centre, radii=(10.0, 5.0, 3.0))
+                r = refine_camera(guess, view.index, self.size, self.model, center=centre, radii=(10.0, 5.0, 3.0))
             except ValueError:
                 break
             sup, spread = backed_support(r.camera, view.bright, self.pitch, spacing=0.5)
             if not backs(sup, spread, self.cfg.min_support) or sup is None or not plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
                 break
-            self._keep_mask(prev.frame, view.bright)
-            self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64)})
-            self.stats["lost"] -= 1
-            self.stats["ok"] += 1
-            self.stats["backfilled"] += 1
-            cam, frame = r.camera, prev.frame
+            had = prev.info.get("support") if prev.camera is not None else None
+            if had is None or sup >= had + self.cfg.carry_gain:
+                self._keep_mask(prev.frame, view.bright)
+                self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64), "carried": backing, "image": img})
+                self.stats[prev.status] -= 1
+                self.stats["ok"] += 1
+                self.stats["backfilled"] += 1
+            nxt, cam, frame = cam, r.camera, prev.frame
 
     def _final(self, est: CameraEstimate) -> CameraEstimate:
         """The line-support test again on the camera that is output (the
         smoother moved it): one that fails is "lost"."""
         est.info.pop("image", None)
+        est.info.pop("carried", None)
+        est.info.pop("seeded", None)
         if est.camera is None or "support" not in est.info:
             return est
         if est.camera is est.info.get("judged"):  # (live: the camera judged when it was made)

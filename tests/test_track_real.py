@@ -159,11 +159,11 @@ def test_a_camera_found_afresh_is_carried_back_over_the_held_frames():
     tr.centre = cams[0].center.copy()  # (the tripod's, frozen from earlier frames)
     for k in range(3):
         tr._window.append(CameraEstimate.lost(k, k / 25, reason="no camera", image=_frame(cams[k], SIZE, seed=k)))
-    found = CameraEstimate(3, 3 / 25, "ok", cams[3], 0.9, {"source": "paint"})
-    tr._backfill(found)
-    assert [e.status for e in tr._window] == ["ok", "ok", "ok"] and tr.stats["backfilled"] == 3
+    tr._window.append(CameraEstimate(3, 3 / 25, "ok", cams[3], 0.9, {"source": "paint"}))
+    tr._carry_back(3)
+    assert [e.status for e in tr._window] == ["ok", "ok", "ok", "ok"] and tr.stats["backfilled"] == 3
     pts = PITCH.sample_points(0.5)
-    for k, e in enumerate(tr._window):
+    for k, e in enumerate(list(tr._window)[:3]):
         # 8 px of pan a frame, refined back to each frame's own camera about
         # the tripod (pan, tilt, roll, f) against 2-px lines drawn and
         # compressed: as the paint refinement does on these frames (2.7-2.9 px,
@@ -177,8 +177,9 @@ def test_a_camera_found_afresh_is_carried_back_over_the_held_frames():
     tr2._paint = True
     tr2._window.append(CameraEstimate.lost(0, 0.0, reason="no camera", image=_frame(cams[0], SIZE, seed=0)))
     tr2._window.append(CameraEstimate.lost(1, 0.04, reason="no camera"))
-    tr2._backfill(CameraEstimate(2, 0.08, "ok", cams[2], 0.9, {"source": "paint"}))
-    assert [e.status for e in tr2._window] == ["lost", "lost"]
+    tr2._window.append(CameraEstimate(2, 0.08, "ok", cams[2], 0.9, {"source": "paint"}))
+    tr2._carry_back(2)
+    assert [e.status for e in tr2._window] == ["lost", "lost", "ok"]
 
 
 def _banded(cam, size, band: float):

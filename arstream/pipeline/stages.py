@@ -362,7 +362,7 @@ class TrackStage(Stage):
         self.supports: list = []
         self.available = tracker is not None
         self.lag = int(lag)
-        self.max_held = self.lag + 8
+        self.max_held = getattr(tracker, "holds", self.lag) + 8
         self.held: collections.OrderedDict[int, Item] = collections.OrderedDict()
 
     def process(self, item: Item) -> list[Item]:
