@@ -260,7 +260,9 @@ class Tracker:
     width, height : frame size (pixels)
     fps : frame rate (sets the filter's time step)
     lag : 0 for live (causal) output; N > 0 for an RTS smoother over a sliding
-        window, estimates emitted N frames late
+        window, estimates emitted N frames late (on real frames up to
+        ``config.carry_hold`` seconds later while weakly backed frames wait
+        for a camera to be carried back to them: :meth:`_carry_back`)
     pitch : PitchModel (default 105 x 68 m)
     estimate_pitch : start from ``pitch`` (None: 105 x 68 m) and estimate
         the size from the first views of the clip
@@ -333,6 +335,7 @@ class Tracker:
         self._last_f = None
         self._window: deque = deque()
         self._hold = int(round(self.cfg.carry_hold * self.fps)) if self.lag else 0
+        self._cuts: set[int] = set()  # offline: the frames held that open a shot (a cut before them)
         self._smoother = KalmanFilter(dim_x=8, dim_z=4)  # only its rts_smoother is used
         self._image: np.ndarray | None = None  # the frame being solved (for the line-support gate)
         self._unsupported = 0  # consecutive frames whose camera the paint did not back
@@ -551,6 +554,8 @@ class Tracker:
         if cut:
             self.stats["cuts"] += 1
             self._cut_seen = True
+            if self.lag:
+                self._cuts = {k for k in self._cuts if k > index - self.holds} | {index}
             self.reset()
         if det is None or not getattr(det, "pitch_visible", True) or len(det.line_points) < 30:
             self.reset()
@@ -1137,7 +1142,7 @@ class Tracker:
         position in the window), when found afresh or backed by its paint at
         ``cfg.sure`` or more, is carried back over the frames just before it
         that are still held and were left without a camera or with a weaker
-        one (:meth:`_weak`). Each is refined against its own paint from the
+        one (:meth:`_weak`), back to the shot's first frame. Each is refined against its own paint from the
         later frame's camera moved on by the motion between the two frames
         after it (:class:`_CameraStep`: the pan goes on), about the tripod
         centre once frozen; the walk stops at the first frame whose paint does
@@ -1175,7 +1180,7 @@ class Tracker:
         for j in range(at - 1, -1, -1):
             prev = self._window[j]
             img = prev.info.get("image")
-            if img is None or prev.frame != frame - 1 or not self._weak(prev) or backing < prev.info.get("carried", -1.0) + self.cfg.carry_gain:
+            if img is None or prev.frame != frame - 1 or frame in self._cuts or not self._weak(prev) or backing < prev.info.get("carried", -1.0) + self.cfg.carry_gain:
                 break
             prev.info["carried"] = backing
             guess = cam if nxt is None else _CameraStep.between(nxt, cam).apply(cam, 1.0)

@@ -182,6 +182,79 @@ def test_a_camera_found_afresh_is_carried_back_over_the_held_frames():
     assert [e.status for e in tr2._window] == ["lost", "lost", "ok"]
 
 
+def _weak_then_sure(monkeypatch, tr, cams, weak: int, cut: int | None = None):
+    """Feed ``tr`` the frames of ``cams`` (drawn and compressed), its filter's
+    camera 12 px of pan off on the first ``weak`` (their paint backs it at
+    about 0.7, below ``cfg.sure``) and right after, a shot cut seen before
+    frame ``cut``; returns the estimates output, per call."""
+    frames = [_frame(c, SIZE, seed=k) for k, c in enumerate(cams)]
+    off = 12.0 / cams[0].focal
+
+    def solve(index, pts, image, det, thumbnail=None):
+        if index == cut:
+            tr._cuts.add(index)
+        cam = _panned(cams[index], off) if index < weak else cams[index]
+        return tr._estimate(index, pts, "ok", cam, 0.8, tr.centre, filtered=False, source="track")
+
+    monkeypatch.setattr(tr, "_solve", solve)
+    return [tr.process(k, k / 25, img, None) for k, img in enumerate(frames)] + [tr.flush()]
+
+
+@pytest.mark.parametrize("cut", [None, 4])
+def test_a_well_backed_camera_is_carried_back_over_the_weaker_ones_held_before_it(monkeypatch, cut):
+    # offline (lag 2), real frames: a clip opens on a view whose paint backs
+    # the filter's camera at about 0.7 (it is 12 px off) until frame 8, where
+    # a camera the paint backs above cfg.sure comes. The weak frames are held
+    # beyond the lag until it comes, then it is carried back over them (back
+    # to the shot's first frame: not over a cut), each refined from the later
+    # frame's camera moved on by the pan, and all are output in order
+    from arstream.evaluate import frame_error
+    from test_circle_view import PITCH
+
+    cams = [_panned(looking_at((0.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 1.4 * SIZE[0], SIZE), -k * 8.0 / (1.4 * SIZE[0])) for k in range(12)]
+    tr = Tracker(*SIZE, lag=2)
+    tr._paint = True
+    tr.centre = cams[0].center.copy()
+    out = _weak_then_sure(monkeypatch, tr, cams, weak=8, cut=cut)
+    first = 0 if cut is None else cut
+    if cut is None:
+        # nothing before frame 8's successor (frame 9: the motion to carry back)
+        assert [[e.frame for e in o] for o in out[:9]] == [[]] * 9
+        assert [e.frame for e in out[9]] == list(range(8))
+    assert [e.frame for o in out for e in o] == list(range(12))
+    pts = PITCH.sample_points(0.5)
+    for e in (e for o in out for e in o):
+        err = frame_error(cams[e.frame], e.camera, SIZE, pts, PITCH.symmetries).mean
+        if first <= e.frame < 8:
+            # as the backfill test above: within 4 px of each frame's own
+            # camera, where the filter's was 12 px off
+            assert e.info["source"] == "backfill" and e.status == "ok" and err < 4.0, (e.frame, err)
+            assert e.info["support"] >= tr.cfg.sure
+        elif e.frame < first:
+            assert e.info["source"] == "track" and err > 10.0, (e.frame, err)
+        assert not {"image", "carried", "seeded"} & set(e.info), e.frame
+    assert tr.stats["backfilled"] == 8 - first
+
+
+def test_weak_frames_are_held_no_longer_than_carry_hold(monkeypatch):
+    # no camera backed above cfg.sure comes (the first 8 frames of the clip
+    # above): the weak frames are output carry_hold seconds (3 frames at 25
+    # fps) beyond the lag, as they were
+    from arstream.track import TrackerConfig
+
+    cams = [_panned(looking_at((0.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 1.4 * SIZE[0], SIZE), -k * 8.0 / (1.4 * SIZE[0])) for k in range(8)]
+    tr = Tracker(*SIZE, lag=2, config=TrackerConfig(carry_hold=0.12))
+    tr._paint = True
+    tr.centre = cams[0].center.copy()
+    assert tr.holds == 5
+    out = _weak_then_sure(monkeypatch, tr, cams, weak=8)
+    assert [[e.frame for e in o] for o in out[:-1]] == [[]] * 5 + [[0], [1], [2]]
+    assert [e.frame for e in out[-1]] == list(range(3, 8))
+    assert tr.stats["backfilled"] == 0 and all(e.info["source"] == "track" for o in out for e in o)
+    # live (lag 0) nothing is held
+    assert Tracker(*SIZE).holds == 0
+
+
 def _banded(cam, size, band: float):
     """A frame of ``size`` seen by ``cam``: grass with every marking painted
     as a band of ``band`` metres on one side of its centreline (a painted
