@@ -111,7 +111,8 @@ class TrackerConfig:
     paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
     sure: float = 0.85  # offline, real frames: line support of a camera carried back over the held frames before it (Tracker._carry_back) ...
     carry_gain: float = 0.05  # ... replacing each camera it lays on paint better by this much (and each frame without one) ...
-    carry_hold: float = 2.0  # ... which are held (seconds beyond the lag) while they wait for such a camera
+    carry_hold: float = 2.0  # ... which are held (seconds beyond the lag) while they wait for such a camera;
+    carry_agree: float = 3.0  # ... where a frame keeps its own camera, backed as well, the carried one must lie within this (px: the refinement's last radius)
     manoeuvre: float = 3.0  # ... but not while the frame's own motion changes pace by more than this (px/frame, analysis frame): a whip pan
     pitch_views: tuple = (6, 12, 24)  # with the pitch's size unknown: estimate it when this many views are collected
     pitch_spacing: int = 5  # frames between two views for the size estimate
@@ -1142,16 +1143,22 @@ class Tracker:
         position in the window), when found afresh or backed by its paint at
         ``cfg.sure`` or more, is carried back over the frames just before it
         that are still held and were left without a camera or with a weaker
-        one (:meth:`_weak`), back to the shot's first frame. Each is refined against its own paint from the
-        later frame's camera moved on by the motion between the two frames
+        one (:meth:`_weak`), back to the shot's first frame. Each is refined
+        against its own paint from the later frame's camera moved on by the motion between the two frames
         after it (:class:`_CameraStep`: the pan goes on), about the tripod
         centre once frozen; the walk stops at the first frame whose paint does
         not back its refinement, at a frame backed at ``cfg.sure``, or at one
         walked over before from a camera backed as well (within
         ``cfg.carry_gain``: a later, better-backed camera walks again over
-        the frames an earlier one carried its view to). A frame takes the refined camera when it had none
-        or when its paint backs the refinement by ``cfg.carry_gain`` more than
-        its own.
+        the frames an earlier one carried its view to). A frame takes the
+        refined camera when it had none or when its paint backs the refinement
+        by ``cfg.carry_gain`` more than its own. Where a frame keeps its own
+        camera, the walk's must agree with it (within ``cfg.carry_agree``
+        px): one that does not, and that the frame's paint backs no better
+        than the frame's own, ends the walk and undoes what it replaced since
+        it last agreed (in a whip pan with a zoom, a walk that kept the focal
+        length laid the long lines on their blurred paint better than the
+        filter's camera and the centre circle 20 px inside its own).
 
         Why: the paint initialiser runs every few frames while lost, and a
         camera found at frame k would otherwise leave the frames since the
@@ -1177,6 +1184,7 @@ class Tracker:
         # does not leave its tripod between frames, and free poses of views the
         # paint backs poorly slide along their lines of sight)
         centre = self.centre if self.centre is not None else cam.center
+        pending: list = []  # (position, estimate, mask) replaced since the walk last agreed with a frame's own camera
         for j in range(at - 1, -1, -1):
             prev = self._window[j]
             img = prev.info.get("image")
@@ -1194,11 +1202,27 @@ class Tracker:
                 break
             had = prev.info.get("support") if prev.camera is not None else None
             if had is None or sup >= had + self.cfg.carry_gain:
+                pending.append((j, prev, self._bright.get(prev.frame)))
                 self._keep_mask(prev.frame, view.bright)
                 self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64), "carried": backing, "image": img})
                 self.stats[prev.status] -= 1
                 self.stats["ok"] += 1
                 self.stats["backfilled"] += 1
+            elif _image_shift(prev.camera, r.camera, centre, self.size) <= self.cfg.carry_agree:
+                pending.clear()  # (the frame's own camera agrees: what the walk replaced stands)
+            elif had >= sup:
+                # the frame's own camera, elsewhere, is backed as well as the
+                # walk's: the paint does not tell them apart, and the walk may
+                # have gone astray since it last agreed (a whip pan's zoom that
+                # the motion carried back did not follow): undone
+                for k, old, mask in pending:
+                    self._window[k] = old
+                    if mask is not None:
+                        self._bright[old.frame] = mask
+                    self.stats["ok"] -= 1
+                    self.stats[old.status] += 1
+                    self.stats["backfilled"] -= 1
+                break
             nxt, cam, frame = cam, r.camera, prev.frame
 
     def _final(self, est: CameraEstimate) -> CameraEstimate:
