@@ -255,6 +255,55 @@ def test_weak_frames_are_held_no_longer_than_carry_hold(monkeypatch):
     assert Tracker(*SIZE).holds == 0
 
 
+@pytest.mark.parametrize("astray", [False, True])
+def test_a_walk_that_disagrees_with_a_frames_own_camera_backed_as_well_is_undone(monkeypatch, astray):
+    # frames 1-4 got no camera; frame 0 keeps its own (right) camera, the
+    # walk's refinement there not better backed. A walk that agrees with it
+    # fills frames 1-4; one gone astray (its refinements 12 px of pan off,
+    # still backed by the paint at about 0.7, below frame 0's own 0.94) is
+    # undone there: frames 1-4 stay without a camera
+    import arstream.track as track
+    from arstream.estimate import CameraEstimate
+    from arstream.solve import Refinement
+    from arstream.track import TrackerConfig
+
+    cams = [_panned(looking_at((0.0, -60.0, 14.0), (-20.0, 5.0, 0.0), 1.4 * SIZE[0], SIZE), -k * 8.0 / (1.4 * SIZE[0])) for k in range(6)]
+    frames = [_frame(c, SIZE, seed=k) for k, c in enumerate(cams)]
+    # (every frame weak below a sure of 0.99: frame 0's is a meeting, not the walk's end)
+    tr = Tracker(*SIZE, lag=5, config=TrackerConfig(sure=0.99))
+    tr._paint = True
+    tr.centre = cams[0].center.copy()
+    own, spread = tr._support(0, cams[0], frames[0])
+    tr._window.append(CameraEstimate(0, 0.0, "ok", cams[0], 0.9, {"support": own, "spread": spread, "judged": cams[0], "image": frames[0]}))
+    for k in range(1, 5):
+        tr._window.append(CameraEstimate.lost(k, k / 25, reason="no camera", image=frames[k]))
+    tr._window.append(CameraEstimate(5, 0.2, "ok", cams[5], 0.9, {"source": "paint", "support": 0.95}))
+    off = 12.0 / cams[0].focal if astray else 0.0
+    by_frame = {id(f): c for f, c in zip(frames, cams)}
+
+    def refine(guess, index, size, model, **kw):
+        # the walk's refinement of each frame: its own camera, panned by ``off``
+        cam = _panned(by_frame[refine.frame], off)
+        return Refinement(cam, 0.9, 0.5, 400, 380, np.eye(4), ("pan", "tilt", "roll", "f"))
+
+    real_view = track.paint_view
+
+    def view(img, det, **kw):
+        refine.frame = id(img)
+        return real_view(img, det, **kw)
+
+    monkeypatch.setattr(track, "refine_camera", refine)
+    monkeypatch.setattr(track, "paint_view", view)
+    tr._carry_back(5)
+    statuses = [e.status for e in tr._window]
+    if astray:
+        assert statuses == ["ok", "lost", "lost", "lost", "lost", "ok"] and tr.stats["backfilled"] == 0
+    else:
+        assert statuses == ["ok"] * 6 and tr.stats["backfilled"] == 4
+        assert all(e.info["source"] == "backfill" for e in list(tr._window)[1:5])
+    assert tr._window[0].camera is cams[0]
+
+
 def _banded(cam, size, band: float):
     """A frame of ``size`` seen by ``cam``: grass with every marking painted
     as a band of ``band`` metres on one side of its centreline (a painted
