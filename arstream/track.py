@@ -110,7 +110,7 @@ class TrackerConfig:
     smooth_slack: float = 0.1  # a smoothed camera this much less supported than the filter's own is not output
     paint_noise: float = 50.0  # real frames (paint mode): the measurement variance over the refinement's covariance
     sure: float = 0.85  # offline, real frames: line support of a camera carried back over the held frames before it (Tracker._carry_back) ...
-    carry_gain: float = 0.05  # ... replacing each camera it lays on paint better by this much, and at sure (and each frame without one) ...
+    carry_gain: float = 0.05  # ... replacing each camera it lays on paint better by this much (and each frame without one) ...
     carry_hold: float = 2.0  # ... which are held (seconds beyond the lag) while they wait for such a camera;
     carry_agree: float = 3.0  # ... where a frame keeps its own camera, backed as well, the carried one must lie within this (px: the refinement's last radius)
     manoeuvre: float = 3.0  # ... but not while the frame's own motion changes pace by more than this (px/frame, analysis frame): a whip pan
@@ -1154,11 +1154,8 @@ class Tracker:
         walked over before from a camera backed as well (within
         ``cfg.carry_gain``: a later, better-backed camera walks again over
         the frames an earlier one carried its view to). A frame takes the
-        refined camera when it had none, or when its paint backs the
-        refinement at ``cfg.sure`` (as the camera carried back) and by
-        ``cfg.carry_gain`` more than its own (the tracker's test at the
-        analysis size, on a clip whose right cameras score 0.8-0.86 on it,
-        tells a refinement 0.05 better from one drawn worse poorly). Where a frame keeps its own
+        refined camera when it had none or when its paint backs the refinement
+        by ``cfg.carry_gain`` more than its own. Where a frame keeps its own
         camera, the walk's must agree with it (within ``cfg.carry_agree``
         px): one that does not, and that the frame's paint backs no better
         than the frame's own, ends the walk and undoes what it replaced since
@@ -1207,7 +1204,7 @@ class Tracker:
             if not backs(sup, spread, self.cfg.min_support) or sup is None or not plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
                 break
             had = prev.info.get("support") if prev.camera is not None else None
-            if had is None or (sup >= self.cfg.sure and sup >= had + self.cfg.carry_gain):
+            if had is None or sup >= had + self.cfg.carry_gain:
                 pending.append((j, prev, self._bright.get(prev.frame)))
                 self._keep_mask(prev.frame, view.bright)
                 self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64), "carried": backing, "image": img})
