@@ -489,6 +489,7 @@ class Tracker:
         self._window.append(est)
         if self._paint:
             self._carry_back(len(self._window) - 2)  # (its successor known now: the motion to carry back)
+        self._smooth(len(self._window) - 1 - self.lag)
         out = []
         while len(self._window) > self.lag and not (len(self._window) <= self.holds and self._waits(self._window[0])):
             out.append(self._final(self._smooth_pop()))
@@ -512,19 +513,24 @@ class Tracker:
         return out
 
     # --- offline smoothing ---------------------------------------------------------
-    def _smooth_pop(self) -> CameraEstimate:
-        """Pop the oldest estimate of the window, smoothed with the RTS smoother over the
-        run of filtered frames that starts with it (until a reset or the window's end)."""
-        first = self._window[0]
+    def _smooth(self, i: int) -> None:
+        """Smooth the held estimate at window position ``i``, once: the RTS
+        smoother over the run of filtered frames that starts with it (until a
+        reset, the window's end or the lag's frames ahead), then a centre
+        move's step (:meth:`_move_centre`). Done when the frame is ``lag``
+        frames old, as the fixed-lag smoother pops it: a frame held longer,
+        waiting for a camera carried back (:meth:`_carry_back`), keeps what it
+        had then (with the clip's later k1 estimate, the artificial-turf
+        clip's held opening was bent off its paint, 0.98 -> 0.87)."""
+        if i < 0 or i >= len(self._window) or self._window[i].info.get("smoothed"):
+            return
+        est = self._window[i]
         run = []
-        for e in self._window:
-            # (the lag's frames ahead, also while more are held for a camera
-            # carried back: a longer run pulled the smoothed cameras of the
-            # artificial-turf clip's opening off their paint, 0.98 -> 0.86)
-            if "kf" not in e.info or e.info["kf"][4] != first.info.get("kf", (None,) * 5)[4] or len(run) > self.lag:
+        for j in range(i, min(len(self._window), i + self.lag + 1)):
+            e = self._window[j]
+            if "kf" not in e.info or e.info["kf"][4] != est.info.get("kf", (None,) * 5)[4]:
                 break
             run.append(e)
-        est = self._window.popleft()
         if len(run) >= 2 and "kf" in est.info:
             Xs = np.array([e.info["kf"][0] for e in run])
             Ps = np.array([e.info["kf"][1] for e in run])
@@ -534,14 +540,21 @@ class Tracker:
             centre = est.info["centre"]
             cam = self._camera_from_state(xs[0], centre)
             est = CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, {k: v for k, v in est.info.items() if k != "kf"})
-        else:
-            est.info.pop("kf", None)
         ramp = est.info.pop("ramp", None)
         if ramp and est.camera is not None:
             cam = est.camera
             for w, step in ramp:
                 cam = step.apply(cam, w)
             est = CameraEstimate(est.frame, est.pts, est.status, cam, est.confidence, est.info)
+        est.info["smoothed"] = True
+        self._window[i] = est
+
+    def _smooth_pop(self) -> CameraEstimate:
+        """Pop the oldest estimate of the window, smoothed (:meth:`_smooth`)."""
+        self._smooth(0)
+        est = self._window.popleft()
+        est.info.pop("kf", None)
+        est.info.pop("smoothed", None)
         return est
 
     # --- the per-frame logic ---------------------------------------------------------

@@ -340,7 +340,7 @@ def test_premier_league_sequence_tracked(tmp_path):
     # the first camera comes at frame 04 (the paint initialiser tries every 4
     # frames while lost; frames 00-01 give no camera the paint backs at the
     # tracker's 640 x 360), and is carried back over frames 00-03 while the
-    # smoother still holds them (Tracker._backfill): 92.2 -> 100 % on
+    # smoother still holds them (Tracker._carry_back): 92.2 -> 100 % on
     # 2026-11-28 (68.6 % when the JPEG frames' full-range levels were read as
     # video levels)
     assert score.coverage >= 0.95, score
