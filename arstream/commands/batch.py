@@ -58,7 +58,7 @@ def register(subparsers) -> None:
     p.add_argument("--address", metavar="ADDR", help="Ray cluster to join: auto (the cluster this machine is a node of) or HOST:PORT of its head (default: start a local Ray)")
     p.add_argument("--workers", type=int, metavar="N", help="clips at once (default: the cores, or the Ray cluster's CPUs)")
     p.add_argument("--force", action="store_true", help="redo clips whose outputs are already complete")
-    p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
+    p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10; on real footage weakly backed frames may wait up to 2 s more for a later camera carried back)")
     add_encoder_arguments(p)
     p.add_argument("--frames", type=int, default=None, metavar="N", help="stop each clip after N frames")
     p.add_argument("--json", action="store_true", help="print the batch summary as JSON on stdout")

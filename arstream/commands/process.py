@@ -43,7 +43,7 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT.mp4", help="augmented video to write")
     p.add_argument("--scene", metavar="FILE", help="scene of graphics, .toml or .json (default: the demo scene)")
     p.add_argument("--cameras-out", metavar="FILE", help="write the camera of every frame as JSON lines (cameras.jsonl)")
-    p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10)")
+    p.add_argument("--lag", type=int, default=10, metavar="N", help="frames of look-ahead for the smoother; 0 is causal (default: 10; on real footage weakly backed frames may wait up to 2 s more for a later camera carried back)")
     p.add_argument("--analysis-width", type=int, default=None, metavar="PX", help="detect and solve on frames scaled to this width; 0 = full resolution (default: 640; a frame less than 1.5 times as wide, e.g. 854x480, at its own size, and one more than twice as wide at half its size, e.g. 1920x1080 at 960)")
     add_view_arguments(p)
     add_encoder_arguments(p)
