@@ -1160,8 +1160,9 @@ class Tracker:
         ``cfg.sure`` or more, is carried back over the frames just before it
         that are still held and were left without a camera or with a weaker
         one (:meth:`_weak`), back to the shot's first frame. Each is refined
-        against its own paint from the later frame's camera moved on by the motion between the two frames
-        after it (:class:`_CameraStep`: the pan goes on), about the tripod
+        against its own paint from the later frame's camera moved on by the
+        motion between the two frames after it (:class:`_CameraStep`: the pan
+        goes on; else from the later camera as it is), about the tripod
         centre once frozen; the walk stops at the first frame whose paint does
         not back its refinement, at a frame backed at ``cfg.sure``, or at one
         walked over before from a camera backed as well (within
@@ -1171,10 +1172,13 @@ class Tracker:
         by ``cfg.carry_gain`` more than its own. Where a frame keeps its own
         camera, the walk's must agree with it (within ``cfg.carry_agree``
         px): one that does not, and that the frame's paint backs no better
-        than the frame's own, ends the walk and undoes what it replaced since
-        it last agreed (in a whip pan with a zoom, a walk that kept the focal
-        length laid the long lines on their blurred paint better than the
-        filter's camera and the centre circle 20 px inside its own).
+        than the frame's own, ends the walk, and undoes what it put in since
+        it last agreed when the frame's own camera is backed as well as the
+        weakest of those (in a whip pan with a zoom, a walk that kept the
+        focal length laid the long lines on their blurred paint better than
+        the filter's camera and the centre circle 20 px inside its own; a
+        walk that filled 15 frames at 0.97 is not undone by a sweep's camera
+        at 0.56).
 
         Why: the paint initialiser runs every few frames while lost, and a
         camera found at frame k would otherwise leave the frames since the
@@ -1207,18 +1211,23 @@ class Tracker:
             if img is None or prev.frame != frame - 1 or frame in self._cuts or not self._weak(prev) or backing < prev.info.get("carried", -1.0) + self.cfg.carry_gain:
                 break
             prev.info["carried"] = backing
-            guess = cam if nxt is None else _CameraStep.between(nxt, cam).apply(cam, 1.0)
             view = paint_view(img, None, reach=self.support_reach)
-            try:
-                r = refine_camera(guess, view.index, self.size, self.model, center=centre, radii=(10.0, 5.0, 3.0))
-            except ValueError:
-                break
-            sup, spread = backed_support(r.camera, view.bright, self.pitch, spacing=0.5)
-            if not backs(sup, spread, self.cfg.min_support) or sup is None or not plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
+            # (from the later camera moved on by the motion, else from it as it
+            # is: a fresh camera's successor differs from it by the filter's
+            # correction as well as by the motion)
+            for guess in [cam] if nxt is None else [_CameraStep.between(nxt, cam).apply(cam, 1.0), cam]:
+                try:
+                    r = refine_camera(guess, view.index, self.size, self.model, center=centre, radii=(10.0, 5.0, 3.0))
+                except ValueError:
+                    continue
+                sup, spread = backed_support(r.camera, view.bright, self.pitch, spacing=0.5)
+                if sup is not None and backs(sup, spread, self.cfg.min_support) and plausible(r.camera.center, r.camera.focal, self.size[0], self.pitch)[0]:
+                    break
+            else:
                 break
             had = prev.info.get("support") if prev.camera is not None else None
             if had is None or sup >= had + self.cfg.carry_gain:
-                pending.append((j, prev, self._bright.get(prev.frame)))
+                pending.append((j, prev, self._bright.get(prev.frame), sup))
                 self._keep_mask(prev.frame, view.bright)
                 self._window[j] = CameraEstimate(prev.frame, prev.pts, "ok", r.camera, r.confidence, {"support": sup, "spread": spread, "judged": r.camera, "source": "backfill", "centre": np.array(centre, dtype=np.float64), "carried": backing, "image": img})
                 self.stats[prev.status] -= 1
@@ -1227,17 +1236,19 @@ class Tracker:
             elif _image_shift(prev.camera, r.camera, centre, self.size) <= self.cfg.carry_agree:
                 pending.clear()  # (the frame's own camera agrees: what the walk replaced stands)
             elif had >= sup:
-                # the frame's own camera, elsewhere, is backed as well as the
-                # walk's: the paint does not tell them apart, and the walk may
-                # have gone astray since it last agreed (a whip pan's zoom that
-                # the motion carried back did not follow): undone
-                for k, old, mask in pending:
-                    self._window[k] = old
-                    if mask is not None:
-                        self._bright[old.frame] = mask
-                    self.stats["ok"] -= 1
-                    self.stats[old.status] += 1
-                    self.stats["backfilled"] -= 1
+                # the frame's own camera, elsewhere, is backed better than the
+                # walk's: the walk ends, and when that camera is backed as well
+                # as the weakest the walk put in since it last agreed, the walk
+                # may have gone astray since (a whip pan's zoom that the motion
+                # carried back did not follow): what it put in is undone
+                if pending and had >= min(p[3] for p in pending):
+                    for k, old, mask, _ in pending:
+                        self._window[k] = old
+                        if mask is not None:
+                            self._bright[old.frame] = mask
+                        self.stats["ok"] -= 1
+                        self.stats[old.status] += 1
+                        self.stats["backfilled"] -= 1
                 break
             nxt, cam, frame = cam, r.camera, prev.frame
 
