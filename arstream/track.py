@@ -248,6 +248,11 @@ class _CameraStep:
         return camera_turned(cam, w * self.dr, w * self.dlogf, cam.center + w * self.dC)
 
 
+#: what an estimate carries only while the offline smoother holds it
+#: (Tracker._smooth, Tracker._carry_back), dropped when it is output (Tracker._final)
+_HELD = ("kf", "smoothed", "image", "carried", "seeded")
+
+
 def _unsupported(index: int, pts: float, sup: float, spread: float) -> CameraEstimate:
     """The "lost" estimate of a frame whose paint does not back its camera."""
     return CameraEstimate.lost(index, pts, reason=f"unsupported camera (line support {sup:.2f}, {spread:.0%} of its markings in view on paint)")
@@ -552,10 +557,7 @@ class Tracker:
     def _smooth_pop(self) -> CameraEstimate:
         """Pop the oldest estimate of the window, smoothed (:meth:`_smooth`)."""
         self._smooth(0)
-        est = self._window.popleft()
-        est.info.pop("kf", None)
-        est.info.pop("smoothed", None)
-        return est
+        return self._window.popleft()
 
     # --- the per-frame logic ---------------------------------------------------------
     def _is_cut(self, image, thumb=None) -> bool:
@@ -1255,9 +1257,8 @@ class Tracker:
     def _final(self, est: CameraEstimate) -> CameraEstimate:
         """The line-support test again on the camera that is output (the
         smoother moved it): one that fails is "lost"."""
-        est.info.pop("image", None)
-        est.info.pop("carried", None)
-        est.info.pop("seeded", None)
+        for key in _HELD:
+            est.info.pop(key, None)
         if est.camera is None or "support" not in est.info:
             return est
         if est.camera is est.info.get("judged"):  # (live: the camera judged when it was made)
