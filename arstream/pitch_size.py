@@ -99,8 +99,9 @@ SCAN_BELOW = 0.95
 SCAN_MARGIN = 0.05
 #: the scan's paired test (:func:`higher_throughout`), the other way a size
 #: wins: the clip cut into blocks of this many frames (a second at 25 fps)
-#: and each size's line support compared frame by frame with the other's on
-#: the frames both gave a camera. The frames of a clip differ far more from
+#: and each size's line support compared frame by frame with the other's (a
+#: frame one size's tracker gave no camera counts as none of its markings on
+#: paint: :func:`paired_blocks`). The frames of a clip differ far more from
 #: each other (views, paint, blur) than two sizes on one frame, so a size
 #: that fits better by 0.01 on every frame can still lose to the margin on
 #: the medians (``bench/README.md``, "Stop 50")
@@ -367,15 +368,22 @@ def paired_blocks(base, other, block: int = SCAN_BLOCK) -> tuple[int, int]:
     Returns
     -------
     (for, against): blocks of ``block`` consecutive frames, of which at least
-    two fifths have a camera at both sizes, whose median of ``other`` minus
+    two fifths have a camera at either size, whose median of ``other`` minus
     ``base`` over those frames is above :data:`SCAN_TIE` (for) or below
-    minus it (against).
+    minus it (against). A frame where only one size's tracker gave a camera
+    counts that camera's line support against none (0): the paint backs no
+    marking of a camera not given, and a size whose tracker loses the view
+    where the other's follows it on paint fits those frames worse, not
+    unknown (a 108 x 64.5 m pitch tracked at 105 x 68 loses two seconds of
+    a pan that the size its views estimate follows at 0.9; with those
+    frames left out it won 4 blocks to none, one short;
+    ``bench/README.md`` "Stop 68").
     """
     if len(base) != len(other):
         raise ValueError(f"both sizes' supports must be of the same frames: {len(base)} and {len(other)}")
     pro = con = 0
     for s in range(0, len(base), block):
-        d = [float(y) - float(x) for x, y in zip(base[s : s + block], other[s : s + block]) if x is not None and y is not None]
+        d = [(0.0 if y is None else float(y)) - (0.0 if x is None else float(x)) for x, y in zip(base[s : s + block], other[s : s + block]) if x is not None or y is not None]
         if len(d) >= 0.4 * block:
             m = float(np.median(d))
             pro += m > SCAN_TIE

@@ -274,8 +274,11 @@ def _noisy(n, seed, lo=0.80, hi=0.99):
         ([0.9] * 100, [0.91] * 100, (4, 0)),  # higher in each block of 25
         ([0.9] * 100, [0.904] * 100, (0, 0)),  # by less than SCAN_TIE: ties
         ([0.9] * 50 + [0.95] * 50, [0.95] * 50 + [0.9] * 50, (2, 2)),
-        ([0.9] * 25 + [None] * 16 + [0.9] * 9, [1.0] * 50, (1, 0)),  # 9 of 25 frames paired: that block is left out
-        ([0.9] * 25 + [None] * 15 + [0.9] * 10, [1.0] * 50, (2, 0)),  # 10 of 25 (two fifths): counted
+        ([0.9] * 25 + [None] * 16 + [0.9] * 9, [0.95] * 25 + [None] * 16 + [0.95] * 9, (1, 0)),  # 9 of 25 frames with a camera: that block is left out
+        ([0.9] * 25 + [None] * 15 + [0.9] * 10, [0.95] * 25 + [None] * 15 + [0.95] * 10, (2, 0)),  # 10 of 25 (two fifths): counted
+        ([0.9] * 25 + [None] * 16 + [0.95] * 9, [0.95] * 50, (2, 0)),  # base lost where other holds: 0.95 against none
+        ([0.9] * 50, [0.95] * 25 + [None] * 13 + [0.95] * 12, (1, 1)),  # other lost on 13 of 25 frames base holds at 0.9: against
+        ([0.9] * 50, [0.95] * 25 + [None] * 12 + [0.95] * 13, (2, 0)),  # on 12 of 25 the median is still of the frames both hold
         ([0.9] * 30, [0.95] * 30, (1, 0)),  # the last 5 frames are too few for a block
     ],
 )
