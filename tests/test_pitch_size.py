@@ -801,6 +801,43 @@ def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
 
 
+@pytest.mark.parametrize(
+    "seen_first, median_next, sizes_run, final",
+    [
+        # the views at 105.8 estimate 106.3 +- 0.5: within their noise, 0.5 m away; the
+        # paint backs 106.3 more (0.933 > 0.924 + SCAN_TIE), and its views' 107.9 +- 0.3 is
+        # beyond their noise: tracked (REFINE_RUNS) and kept (no lower)
+        ((106.3, 65.6, 0.5, 0.6), 0.933, [105.8, 106.3, 107.9], (107.9, 64.6)),
+        # the paint backs 106.3 no more than by SCAN_TIE: the run before stays
+        ((106.3, 65.6, 0.5, 0.6), 0.926, [105.8, 106.3], (105.8, 65.5)),
+        # within their noise and less than REFINE_STEP away: not tracked
+        ((106.0, 65.6, 0.5, 0.6), 0.990, [105.8], (105.8, 65.5)),
+    ],
+)
+def test_an_estimate_within_its_noise_but_a_step_away_is_tracked_and_kept_where_the_paint_backs_it_more(monkeypatch, seen_first, median_next, sizes_run, final):
+    # (the decision alone: the runs are stood in for by their views' estimates
+    # and line supports, those of a synthetic 108 x 64.5 m pitch's runs; the
+    # runs themselves are the tests above)
+    from arstream.pipeline import api
+    from arstream.pipeline.summary import Summary
+
+    seen = {105.8: PitchSize(*seen_first, source="estimated", views=12), 106.3: PitchSize(107.9, 64.6, 0.3, 0.5, source="estimated", views=12), 107.9: PitchSize(107.9, 64.5, 0.3, 0.5, source="estimated", views=12)}
+    median = {105.8: 0.924, 106.3: median_next, 107.9: 0.956}
+    ran = []
+
+    def run_beside(input, output, cameras_out, before, run, *, pitch, watch_pitch=False, keep=None):
+        at = round(pitch.length, 1)
+        ran.append(at)
+        supports = [median[at]] * 40
+        if keep is not None and not keep(supports, seen[at]):
+            return before, seen[at], supports
+        return Summary(), seen[at], supports
+
+    monkeypatch.setattr(api, "_run_beside", run_beside)
+    s = api._at_estimate("clip.mp4", None, None, Summary(), {}, PitchSize(105.8, 65.5, 0.5, 0.7, source="estimated", views=6))
+    assert ran == sizes_run and (s.pitch["length"], s.pitch["width"]) == final, (ran, s.pitch_text)
+
+
 def test_a_length_its_views_leave_open_is_probed_either_side(tmp_path, monkeypatch, odd_clip):
     # the 100 x 68 m clip's last run at 103 x 68, whose views (as a penalty
     # view's can) are taken to leave the length open: the clip is tracked at
