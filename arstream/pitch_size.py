@@ -63,7 +63,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "SCAN_ASK_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -80,6 +80,16 @@ VIEW_PRIOR_SD = (3.0, 3.0)
 #: less than three quarters of what is then known of it) and keeps the
 #: prior's value
 VIEW_CONSTRAINS = 0.5
+#: metres: the largest standard deviation of a dimension of the size a
+#: clip's views estimate at 105 x 68 for that estimate to ask for a scan
+#: (:func:`needs_scan`), the still's rule (:data:`VIEW_CONSTRAINS` of
+#: :data:`VIEW_PRIOR_SD`). A size used is fixed tighter
+#: (:func:`estimate_pitch_size`'s ``max_sd``); one that only asks may be
+#: looser, since the scan decides by the paint: a synthetic 106 x 74.5 m
+#: pitch whose views (the centre circle with the far touchline) estimate the
+#: width 72.7 +- 1.4 m was kept at 105 x 68, every frame drawn 10-15 px off,
+#: and is scanned since (bench/README.md "Stop 68")
+SCAN_ASK_SD = VIEW_CONSTRAINS * max(VIEW_PRIOR_SD)
 
 #: a clip whose median line support at the default size is below this is
 #: tracked again at other sizes (:func:`needs_scan`): a scan costs time, not
@@ -326,8 +336,9 @@ def needs_scan(supports, min_frames: int = SCAN_MIN_FRAMES, seen: "PitchSize | N
     :data:`SCAN_BELOW`, over at least ``min_frames`` frames; or, over as
     many, the size its own views estimate (``seen``: the tracker's
     :meth:`arstream.track.Tracker.pitch_seen`, its views made at
-    ``default``) lies beyond two of its standard deviations of ``default``
-    along a dimension the views fix (:meth:`PitchSize.within_noise`). A
+    ``default``, with ``max_sd`` :data:`SCAN_ASK_SD`) lies beyond two of its
+    standard deviations of ``default`` along a dimension the views fix
+    (:meth:`PitchSize.within_noise`). A
     pitch a few metres off can keep nearly all its markings near paint (a
     101 x 68 m pitch tracked at 105 x 68 at a median of 0.95), while the
     views, fitted together about one tripod, tell its size; on clips of a

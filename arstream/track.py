@@ -869,11 +869,12 @@ class Tracker:
         self._kf = self._new_filter(z, Rz, rates)
         self._kf_id = self._kf_at = index
 
-    def pitch_seen(self) -> PitchSize | None:
+    def pitch_seen(self, max_sd: float | None = None) -> PitchSize | None:
         """The pitch's size estimated from the views kept so far (with
         ``watch_pitch``: all of them made at the size tracked with; a
-        dimension they do not fix keeps that size, with no standard
-        deviation), or None without ``watch_pitch``, with fewer than the
+        dimension they do not fix, its standard deviation over ``max_sd``
+        metres (None: :func:`arstream.pitch_size.estimate_pitch_size`'s),
+        keeps that size, with no standard deviation), or None without ``watch_pitch``, with fewer than the
         first estimate's count of views (``TrackerConfig.pitch_views``), or
         when their markings do not match their paint. Of the
         (at most ``pitch_views[-1]``) views kept, ``pitch_views[1]`` evenly
@@ -887,7 +888,7 @@ class Tracker:
         n = min(len(views), self.cfg.pitch_views[1])
         views = [views[int(i)] for i in np.round(np.linspace(0, len(views) - 1, n))]
         try:
-            return estimate_pitch_size(views, self.pitch, centre=self.centre)
+            return estimate_pitch_size(views, self.pitch, centre=self.centre, **({} if max_sd is None else {"max_sd": max_sd}))
         except ValueError:
             return None
 
