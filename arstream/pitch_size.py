@@ -87,7 +87,7 @@ VIEW_CONSTRAINS = 0.5
 #: (:func:`estimate_pitch_size`'s ``max_sd``); one that only asks may be
 #: looser, since the scan decides by the paint: a synthetic 106 x 74.5 m
 #: pitch whose views (the centre circle with the far touchline) estimate the
-#: width 72.7 +- 1.4 m was kept at 105 x 68, every frame drawn 10-15 px off,
+#: width 72.7 +- 1.4 m was kept at 105 x 68, drawn 12.8 px off at the median,
 #: and is scanned since (bench/README.md "Stop 68")
 SCAN_ASK_SD = VIEW_CONSTRAINS * max(VIEW_PRIOR_SD)
 
