@@ -63,7 +63,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "SCAN_ASK_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "SIZE_MAX_SD", "SCAN_ASK_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -80,11 +80,15 @@ VIEW_PRIOR_SD = (3.0, 3.0)
 #: less than three quarters of what is then known of it) and keeps the
 #: prior's value
 VIEW_CONSTRAINS = 0.5
+#: metres: the largest standard deviation of a dimension of a clip's size
+#: estimated from its views for that dimension to be used
+#: (:func:`estimate_pitch_size`'s ``max_sd``); a looser one keeps the prior's
+SIZE_MAX_SD = 0.75
 #: metres: the largest standard deviation of a dimension of the size a
 #: clip's views estimate at 105 x 68 for that estimate to ask for a scan
 #: (:func:`needs_scan`), the still's rule (:data:`VIEW_CONSTRAINS` of
 #: :data:`VIEW_PRIOR_SD`). A size used is fixed tighter
-#: (:func:`estimate_pitch_size`'s ``max_sd``); one that only asks may be
+#: (:data:`SIZE_MAX_SD`); one that only asks may be
 #: looser, since the scan decides by the paint: a synthetic 106 x 74.5 m
 #: pitch whose views (the centre circle with the far touchline) estimate the
 #: width 72.7 +- 1.4 m was kept at 105 x 68, drawn 12.8 px off at the median,
@@ -849,7 +853,7 @@ def estimate_pitch_size(
     prior: PitchModel | None = None,
     *,
     centre: np.ndarray | None = None,
-    max_sd: float = 0.75,
+    max_sd: float = SIZE_MAX_SD,
     radii=(20.0, 8.0, 3.0),
     max_points: int = 300,
     systematic_px: float = 1.0,

@@ -53,7 +53,7 @@ from scipy.linalg import block_diag
 
 from arstream.estimate import CameraEstimate
 from arstream.imaging import grey_thumbnail, sample_bilinear
-from arstream.pitch_size import PitchSize, PitchView, estimate_pitch_size
+from arstream.pitch_size import SIZE_MAX_SD, PitchSize, PitchView, estimate_pitch_size
 from arstream.tripod import fit_tripod
 from arstream.initialise import INIT_ACCEPT, PAINT_CHECK, FrameViews, initialise_camera, initialise_from_paint, paint_score, paint_verdict, paint_view, still_paint_camera, view_supports
 from arstream.solve import LineIndex, ModelSamples, Refinement, explained_share, k1_observable, refine_camera, refinements_along_sight, seated
@@ -869,12 +869,11 @@ class Tracker:
         self._kf = self._new_filter(z, Rz, rates)
         self._kf_id = self._kf_at = index
 
-    def pitch_seen(self, max_sd: float | None = None) -> PitchSize | None:
+    def pitch_seen(self, max_sd: float = SIZE_MAX_SD) -> PitchSize | None:
         """The pitch's size estimated from the views kept so far (with
         ``watch_pitch``: all of them made at the size tracked with; a
         dimension they do not fix, its standard deviation over ``max_sd``
-        metres (None: :func:`arstream.pitch_size.estimate_pitch_size`'s),
-        keeps that size, with no standard deviation), or None without ``watch_pitch``, with fewer than the
+        metres, keeps that size, with no standard deviation), or None without ``watch_pitch``, with fewer than the
         first estimate's count of views (``TrackerConfig.pitch_views``), or
         when their markings do not match their paint. Of the
         (at most ``pitch_views[-1]``) views kept, ``pitch_views[1]`` evenly
@@ -888,7 +887,7 @@ class Tracker:
         n = min(len(views), self.cfg.pitch_views[1])
         views = [views[int(i)] for i in np.round(np.linspace(0, len(views) - 1, n))]
         try:
-            return estimate_pitch_size(views, self.pitch, centre=self.centre, **({} if max_sd is None else {"max_sd": max_sd}))
+            return estimate_pitch_size(views, self.pitch, centre=self.centre, max_sd=max_sd)
         except ValueError:
             return None
 

@@ -256,7 +256,7 @@ def process(
     run = dict(scene=scene, lag=lag, crf=crf, preset=preset, audio=audio, progress=progress, max_frames=max_frames, handle_signals=handle_signals, overlap=overlap, analysis_width=analysis_width, pixel_aspect=pixel_aspect, threads=threads, keep_b_frames=keep_b_frames, area=area)
     from arstream.pitch_size import SCAN_ASK_SD, SCAN_MIN_FRAMES, needs_scan
 
-    first, supports, an, seen = _process_once(input, output, cameras_out, pitch=pitch, watch_pitch=SCAN_ASK_SD if pitch is None else False, **run)
+    first, supports, an, seen = _process_once(input, output, cameras_out, pitch=pitch, watch_pitch=pitch is None, seen_max_sd=SCAN_ASK_SD, **run)
     if pitch is not None or not _has("arstream.track"):
         return first
 
@@ -265,14 +265,14 @@ def process(
     return _rescan(input, output, cameras_out, first, an, run)
 
 
-def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False, watch_pitch: bool | float = False) -> tuple[Summary, list, Analysis, object]:
+def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False, watch_pitch: bool = False, seen_max_sd: float | None = None) -> tuple[Summary, list, Analysis, object]:
     """One run of :func:`process`: (its summary, the line support of every
     :data:`JUDGE_EVERY`-th frame (None: no camera), the Analysis it worked
     at, the tracker's PitchSize or None). ``estimate_pitch``: estimate the
     size starting from ``pitch``; ``watch_pitch``: track at ``pitch``, and
     the PitchSize returned is the size its views estimate
-    (:meth:`arstream.track.Tracker.pitch_seen`; None with too few views; a
-    number: that estimate's ``max_sd``, metres);
+    (:meth:`arstream.track.Tracker.pitch_seen`, with ``max_sd``
+    ``seen_max_sd`` when given; None with too few views);
     ``area``: the picture inside black bars (:func:`_picture_area`)."""
     single = threads == 1
     with _open(input, threads=not single) as src:
@@ -282,7 +282,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
         stages = _build(
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
-                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch, watch_pitch=bool(watch_pitch))),
+                lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch, watch_pitch=watch_pitch)),
                 (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
@@ -301,7 +301,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
         finally:
             _note_pitch(pipe.summary, track_box)
     tracker = getattr(track_box[0], "tracker", None) if track_box else None
-    size = None if tracker is None else tracker.pitch_seen(None if watch_pitch is True else watch_pitch) if watch_pitch else tracker.pitch_size
+    size = None if tracker is None else (tracker.pitch_seen() if seen_max_sd is None else tracker.pitch_seen(seen_max_sd)) if watch_pitch else tracker.pitch_size
     return summary, (track_box[0].supports if track_box else []), an, size
 
 
