@@ -209,18 +209,27 @@ def bright_mask(luma: np.ndarray, *, video_range: bool = False, box: int = BOX, 
     lut = _level_table(float(threshold), bool(video_range), box * box)
     depth = cv2.CV_16U if lut.dtype == np.uint16 else cv2.CV_32S
     box_sum = cv2.boxFilter(luma, depth, (box, box), normalize=False, borderType=cv2.BORDER_REPLICATE)
-    bright = cv2.compare(cv2.LUT(luma, lut), box_sum, cv2.CMP_GT)
-    if reach:
-        bright = cv2.dilate(bright, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8))
-    return bright.view(bool)
+    bright = cv2.compare(cv2.LUT(luma, lut), box_sum, cv2.CMP_GT).view(bool)
+    return within_reach(bright, reach)
 
 
-def frame_mask(frame) -> np.ndarray:
+def within_reach(mask: np.ndarray, reach: int = REACH) -> np.ndarray:
+    """(H, W) bool: pixels within ``reach`` px (Chebyshev) of a ``True`` pixel
+    of ``mask`` ((H, W) bool); ``mask`` itself when ``reach`` is 0. E.g. the
+    line-support mask from the bright pixels themselves
+    (``bright_mask(..., reach=0)``), without computing them again."""
+    if not reach:
+        return mask
+    return cv2.dilate(mask.view(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)).view(bool)
+
+
+def frame_mask(frame, reach: int = REACH) -> np.ndarray:
     """:func:`bright_mask` of a decoded frame (:class:`arstream.source.Frame`):
     its Y plane as it came from the decoder (limited range) on the fast path,
     else the luma of its BGR image. The mask line support is defined on
-    (docs/evaluate.md), at the frame's own size."""
-    return bright_mask(frame.gray, video_range=frame.yuv is not None)
+    (docs/evaluate.md), at the frame's own size; ``reach`` 0: the bright
+    pixels themselves (a point *on* the paint)."""
+    return bright_mask(frame.gray, video_range=frame.yuv is not None, reach=reach)
 
 
 def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:

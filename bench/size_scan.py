@@ -18,7 +18,9 @@ on every clip without running it. ``--clip PATH`` adds clips of unknown size
 Columns: the clip, its pitch, the median line support at 105 x 68, each
 grid neighbour's median and (blocks for, against) of the paired test
 (:func:`arstream.pitch_size.paired_blocks`; then 105 x 68's and the
-neighbour's disputed points on paint, :func:`arstream.pitch_size.paint_prefers`), the scan's choice, and the
+neighbour's disputed points on paint, :func:`arstream.pitch_size.paint_prefers`;
+then the paired test's blocks on the share of points on the paint itself, the
+on-paint share of :func:`arstream.pitch_size.choose_size`), the scan's choice, and the
 verdict: at 105 x 68, *false* when the scan moves it; at another size,
 *nearer* / *kept* / *further* by the grid distance to the truth (metres over
 the grid's step, the larger of the two dimensions). The scan runs in
@@ -60,8 +62,8 @@ GRID = [DEFAULT] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) 
 
 def track_grid(clip: Path, pixel_aspect: float | None = None) -> dict:
     """Every frame of ``clip`` tracked at each grid size: {"sizes", "supports",
-    "disputes"} (per size a line support per frame, None where it gave no
-    camera; per pair of sizes [size_a, size_b, first, second, disputed,
+    "fine", "disputes"} (per size a line support and an on-paint share per
+    frame, None where it gave no camera; per pair of sizes [size_a, size_b, first, second, disputed,
     in_view], their cameras point for point), as the scan's trackers would,
     on the picture inside any black bars."""
     api._load_kernels()
@@ -70,7 +72,7 @@ def track_grid(clip: Path, pixel_aspect: float | None = None) -> dict:
         an = Analysis(src.width, src.height, DEFAULT_ANALYSIS_WIDTH, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=area)
         got, _ = track_sizes(src, an, GRID, handle_signals=False)
     disputes = [[list(a), list(b), d.first, d.second, d.disputed, d.in_view] for (a, b), d in got.disputes.items()]
-    return {"sizes": [list(s) for s in GRID], "supports": got.supports, "disputes": disputes}
+    return {"sizes": [list(s) for s in GRID], "supports": got.supports, "fine": got.fine, "disputes": disputes}
 
 
 def _disputes(row: dict) -> dict:
@@ -86,8 +88,9 @@ def grid_steps(a, b) -> float:
 def judge(row: dict) -> dict:
     """The scan replayed on a row's supports, with its verdict."""
     table = {tuple(s): sup for s, sup in zip(row["sizes"], row["supports"])}
+    fine = dict(zip(map(tuple, row["sizes"]), row.get("fine") or [None] * len(row["sizes"])))  # (none in rows of older benches)
     disputes = _disputes(row)
-    pick = scan_passes(lambda sizes, rivals: SizesTracked([table[tuple(s)] for s in sizes], disputes=disputes))
+    pick = scan_passes(lambda sizes, rivals: SizesTracked([table[tuple(s)] for s in sizes], disputes=disputes, fine=[fine[tuple(s)] for s in sizes]))
     truth = tuple(row["truth"]) if row.get("truth") else None
     if truth is None:
         verdict = ""
@@ -155,6 +158,9 @@ def main(argv=None) -> int:
             pro, con = paired_blocks(table[DEFAULT], table[s])
             d = _disputes(r).get((DEFAULT, s))
             paint = "" if d is None else f"; {d.first}:{d.second}"
+            fine = dict(zip(map(tuple, r["sizes"]), r.get("fine") or []))
+            if fine.get(DEFAULT) is not None and fine.get(s) is not None:
+                paint += "; on paint {}, {}".format(*paired_blocks(fine[DEFAULT], fine[s]))
             cells.append(f"{'-' if m is None else f'{m:.3f}'} ({pro}, {con}{paint})")
         truth = "?" if r["truth"] is None else f"{r['truth'][0]:g} x {r['truth'][1]:g}"
         print(f"| {r['clip']} | {truth} | {'-' if m0 is None else f'{m0:.3f}'} | " + " | ".join(cells) + f" | {r['chosen'][0]:g} x {r['chosen'][1]:g} | {r['verdict']} |")

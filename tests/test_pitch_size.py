@@ -369,6 +369,48 @@ def test_a_farther_size_must_beat_the_nearer_one():
     assert choose_size(sizes, [base, near, [n + 0.01 for n in near]]).size == (110.0, 72.0)
 
 
+@pytest.mark.parametrize(
+    "median_gain, supports_lean, fine_lean, chosen",
+    [
+        (0.0, 0.0, +0.05, 1),  # the 2 px support saturated (a tie): higher on the paint itself throughout, it wins
+        (0.0, 0.0, 0.0, 0),  # neither: the default stays
+        (0.0, 0.0, -0.05, 0),  # the default's on the paint higher throughout
+        (0.0, +0.012, -0.05, 0),  # higher throughout at 2 px, but the default's cameras lie on the paint itself: vetoed
+        (0.0, +0.012, 0.0, 1),  # higher throughout at 2 px, the paint itself ties: it wins as before
+        (0.06, 0.0, -0.05, 1),  # higher by the margin on the medians: the on-paint share does not overturn it
+        (-0.06, 0.0, +0.05, 0),  # lower by the margin: nor does it lift it
+    ],
+)
+def test_the_share_on_the_paint_itself_settles_sizes_the_2px_support_ties(median_gain, supports_lean, fine_lean, chosen):
+    # a synthetic 105.5 x 71.5 m pitch (bench/README.md "Stop 70"): 105 x 72
+    # 0.986 against 105 x 68's 0.978 on the 2 px line support, one block for,
+    # none against; on the bright pixels themselves 0.951 against 0.900,
+    # higher on 98 % of the frames. The on-paint share, paired frame by frame
+    # (higher_throughout), settles sizes whose medians are within SCAN_MARGIN
+    from arstream.pitch_size import choose_size
+
+    base = _noisy(200, 11)
+    fine = _noisy(200, 12, 0.85, 0.95)
+    sizes = [(105.0, 68.0), (105.0, 72.0)]
+    other = [b + median_gain + supports_lean for b in base]
+    got = choose_size(sizes, [base, other], fine=[fine, [f + fine_lean for f in fine]])
+    assert got.chosen == chosen, got.describe()
+    assert len(got.fine) == 2 and got.fine[1][0] == pytest.approx(fine[0] + fine_lean)
+    # without the on-paint shares (or with one size's missing) the 2 px rule alone decides
+    alone = choose_size(sizes, [base, other])
+    assert choose_size(sizes, [base, other], fine=[fine, None]).chosen == alone.chosen
+    assert alone.chosen == (1 if median_gain > 0 or supports_lean > 0 else 0)
+
+
+def test_choose_size_refuses_on_paint_shares_of_other_frames():
+    from arstream.pitch_size import choose_size
+
+    with pytest.raises(ValueError, match=r"the on-paint shares \(fine\) must be one list per size \(or None\), of the supports' frames"):
+        choose_size([(105, 68), (105, 72)], [_sup(0.9), _sup(0.9)], fine=[_sup(0.8), _sup(0.8, n=29)])
+    with pytest.raises(ValueError, match=r"the on-paint shares \(fine\) must be one list per size"):
+        choose_size([(105, 68), (105, 72)], [_sup(0.9), _sup(0.9)], fine=[_sup(0.8)])
+
+
 @pytest.mark.parametrize("farther_by, chosen", [(-0.04, (100.0, 72.0)), (-0.06, (105.0, 72.0))])
 def test_the_point_for_point_test_does_not_overturn_a_median_lower_by_the_margin(farther_by, chosen):
     # a synthetic SD clip of a 101 x 73.5 m pitch (seed 41, bench/README.md
@@ -532,6 +574,40 @@ def test_the_scan_on_tracked_clips(clip, chosen):
     assert scan_passes(lambda sizes, rivals: SizesTracked([table[s] for s in sizes])).size == chosen
 
 
+@pytest.mark.parametrize(
+    "clip, chosen, at_2px",
+    [
+        ("real-multisport 54", (105.0, 72.0), (105.0, 68.0)),  # 105.5 x 71.5 m: 105 x 72 higher on the paint itself, 1 block to 0 at 2 px
+        ("real-penalty 31", (110.0, 72.0), (105.0, 72.0)),  # 109 x 74.5 m: the second pass's 110 x 72 higher on the paint itself than 105 x 72
+        ("real-multisport 3 at 105 x 68", (105.0, 68.0), (105.0, 68.0)),  # a 105 x 68 m pitch stays
+        ("artificial_turf_multisport", (100.0, 68.0), (100.0, 68.0)),
+        ("israel_league_wide_848x478_26", (105.0, 68.0), (105.0, 68.0)),  # the length open: kept
+        ("real-wide 22", (110.0, 64.0), (110.0, 64.0)),
+        ("real-multisport 3", (105.0, 68.0), (105.0, 68.0)),  # 101 x 68: 100 x 68 higher, 110 x 68 leans too (its views' estimate settles it)
+        ("real-multisport 5", (105.0, 68.0), (105.0, 68.0)),  # 101 x 73.5: no single step higher (the estimate settles it)
+        ("real-penalty 2", (105.0, 68.0), (105.0, 68.0)),  # 101.5 x 69 m in penalty views: the default's on-paint share is higher
+    ],
+)
+def test_the_scan_on_tracked_clips_with_the_share_on_the_paint_itself(clip, chosen, at_2px):
+    # nine clips tracked at the nine grid sizes with the scan's trackers
+    # (tests/data/size_scan/on_paint.json: supports, on-paint shares and
+    # point-for-point disputes, 2026-12-03): the scan replayed with the
+    # on-paint shares, and without them
+    import json
+    from pathlib import Path
+
+    from arstream.pipeline.pitch_scan import SizesTracked, scan_passes
+    from arstream.support import PaintDispute
+
+    rows = {r["clip"]: r for r in json.loads((Path(__file__).parent / "data" / "size_scan" / "on_paint.json").read_text())}
+    row = rows[clip]
+    sizes = [tuple(s) for s in row["sizes"]]
+    table, fine = dict(zip(sizes, row["supports"])), dict(zip(sizes, row["fine"]))
+    disputes = {(tuple(a), tuple(b)): PaintDispute(*v) for a, b, *v in row["disputes"]}
+    assert scan_passes(lambda todo, rivals: SizesTracked([table[s] for s in todo], disputes=disputes, fine=[fine[s] for s in todo])).size == chosen
+    assert scan_passes(lambda todo, rivals: SizesTracked([table[s] for s in todo], disputes=disputes)).size == at_2px
+
+
 def test_with_size_judges_one_more_size():
     # the scan kept the default; a size added later (the default's estimate) is
     # judged by the same rule, on the same frames
@@ -550,6 +626,21 @@ def test_with_size_judges_one_more_size():
     assert f"106.6 x 66 {got.median[2]:.2f}, 110 x 68 " in text
     with pytest.raises(ValueError, match="the scan carries no supports"):
         with_size(SizeScan(((105.0, 68.0),), (0.9,), (1.0,), 30, 0), (100, 68), [0.9] * 30)
+
+
+def test_with_size_judges_one_more_size_on_the_paint_itself_too():
+    # the 2 px supports tie; the added size's on-paint share is higher
+    # throughout (padded as its supports are where its tracker stopped early)
+    from arstream.pitch_size import choose_size, with_size
+
+    base, fine = _noisy(200, 7), _noisy(200, 8, 0.80, 0.90)
+    scan = choose_size([(105, 68), (110, 68)], [base, [b - 0.02 for b in base]], fine=[fine, fine])
+    assert scan.chosen == 0
+    got = with_size(scan, (105.6, 71.4), base, fine=[f + 0.05 for f in fine])
+    assert got.chosen == 2 and len(got.fine[2]) == 200
+    assert with_size(scan, (105.6, 71.4), base).chosen == 0  # without its shares: a tie, the default stays
+    short = with_size(scan, (105.6, 71.4), base[:195], fine=[f + 0.05 for f in fine][:195])
+    assert short.fine[2][195:] == [None] * 5 and short.chosen == 2
 
 
 def test_choose_size_needs_enough_frames_and_matching_lists():
@@ -773,6 +864,11 @@ def test_the_scan_compares_two_sizes_cameras_point_for_point_across_passes(odd_c
     with api._open(clip) as src:
         later, _ = track_sizes(src, an, [odd], rivals={default: one.cameras[0]}, handle_signals=False)
     assert later.disputes == {(default, odd): d} and later.supports == one.supports[1:]
+    # the share on the paint itself: of the same frames, never above the 2 px support
+    for sup, fine in zip(one.supports, one.fine):
+        assert [f is None for f in fine] == [s is None for s in sup]
+        assert all(f <= s for f, s in zip(fine, sup) if f is not None)
+    assert later.fine == one.fine[1:]
 
 
 def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path, odd_clip):

@@ -75,6 +75,18 @@ def test_dilation_reaches_two_pixels():
     assert not bright_mask(np.full((40, 40), 50, np.uint8)).any()
 
 
+def test_within_reach_widens_the_bright_pixels_as_bright_mask_does():
+    # the scan's two masks from one pass over the frame: the on-paint pixels
+    # (reach 0) widened afterwards are bright_mask's own (reach 2)
+    from arstream.support import within_reach
+
+    luma = np.random.default_rng(4).integers(0, 256, (60, 80), dtype=np.uint8)
+    on = bright_mask(luma, reach=0)
+    np.testing.assert_array_equal(within_reach(on), bright_mask(luma))
+    np.testing.assert_array_equal(within_reach(on, 1), bright_mask(luma, reach=1))
+    assert within_reach(on, 0) is on and on.sum() < bright_mask(luma).sum()
+
+
 @pytest.mark.parametrize(
     "luma, kwargs, message",
     [

@@ -23,7 +23,7 @@ from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
 from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, with_size
-from arstream.support import frame_mask, line_support, marking_points, paint_dispute
+from arstream.support import frame_mask, line_support, marking_points, paint_dispute, within_reach
 
 __all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
 
@@ -92,11 +92,15 @@ class SizesTracked:
         each other (:func:`arstream.pitch_size.compared_point_for_point`),
         counting the points in view of both
         (:func:`arstream.support.paint_dispute`, ``in_both``)
+    fine : per size, each frame's on-paint share: line support on the bright
+        pixels themselves, undilated (``frame_mask(frame, reach=0)``; None: no
+        camera), which still tells sizes apart where the 2 px support saturates
     """
 
     supports: list = field(default_factory=list)
     cameras: list = field(default_factory=list)
     disputes: dict = field(default_factory=dict)
+    fine: list = field(default_factory=list)
 
 
 class SizeScanStage(Stage):
@@ -139,7 +143,7 @@ class SizeScanStage(Stage):
         #: sizes with each rival, of those the choice may weigh against each other
         pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i] if compared_point_for_point(a, b)]
         self._samples = {(a, b): corresponding_points(PitchModel(*a), PitchModel(*b)) for a, b in pairs}
-        self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {})
+        self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {}, [[] for _ in sizes])
 
     @property
     def supports(self) -> list[list]:
@@ -164,19 +168,22 @@ class SizeScanStage(Stage):
         if self.gave_up:
             return []
         image = self.analysis.image(item)  # (first: it may make the thumbnail)
-        mask = None
+        mask = on_paint = None
         frame = len(self.tracked.supports[0])
         cams = {}
-        for tracker, points, size, supports, cameras in zip(self.trackers, self.points, self.sizes, self.tracked.supports, self.tracked.cameras):
+        for tracker, points, size, supports, cameras, fine in zip(self.trackers, self.points, self.sizes, self.tracked.supports, self.tracked.cameras, self.tracked.fine):
             (est,) = tracker.process(item.index, item.pts, image, item.detections, thumbnail=item.thumbnail)
             cam = self.analysis.camera(est.camera)
             cameras.append(cam)
             if cam is None:
                 supports.append(None)
+                fine.append(None)
                 continue
             if mask is None:
-                mask = frame_mask(item.frame)
+                on_paint = frame_mask(item.frame, reach=0)
+                mask = within_reach(on_paint)
             supports.append(line_support(cam, mask, points).share)
+            fine.append(line_support(cam, on_paint, points).share)
             cams[size] = cam
         for (a, b), (pa, pb) in self._samples.items():
             ca = cams.get(a) if a in cams else (self.rivals[a][frame] if a in self.rivals and frame < len(self.rivals[a]) else None)
@@ -290,7 +297,7 @@ def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, 
     rivals = dict(zip(scan.sizes, scan.cameras)) if scan.cameras else None
     with open_source() as src:
         got, summary = track_sizes(src, analysis, [tuple(size)], rivals=rivals, max_frames=limit, **kwargs)
-    return with_size(scan, size, got.supports[0], got.disputes, got.cameras[0]), summary.seconds, summary.cpu_seconds
+    return with_size(scan, size, got.supports[0], got.disputes, got.cameras[0], fine=got.fine[0] if got.fine else None), summary.seconds, summary.cpu_seconds
 
 
 def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
@@ -322,6 +329,7 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
     tracked: dict = {}
     cameras: dict = {}
     disputes: dict = {}
+    fine: dict = {}
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
     pick = None
     for first in (True, False):
@@ -332,7 +340,8 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
         tracked.update(zip(new, got.supports))
         cameras.update(zip(new, got.cameras))
         disputes.update(got.disputes)
-        pick = choose_size(list(tracked), list(tracked.values()), disputes)  # (over every size tracked so far)
+        fine.update(zip(new, got.fine or [None] * len(new)))
+        pick = choose_size(list(tracked), list(tracked.values()), disputes, fine=[fine.get(s) for s in tracked])  # (over every size tracked so far)
         if pick.chosen != 0:
             todo = grid_neighbours(pick.size)
         elif first and (both := diagonal_step(pick)) is not None:
