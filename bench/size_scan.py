@@ -152,13 +152,13 @@ def main(argv=None) -> int:
     for r in rows:
         table = {tuple(s): sup for s, sup in zip(r["sizes"], r["supports"])}
         m0 = _median(table[DEFAULT])
+        fine = dict(zip(map(tuple, r["sizes"]), r.get("fine") or []))
         cells = []
         for s in nb:
             m = _median(table[s])
             pro, con = paired_blocks(table[DEFAULT], table[s])
             d = _disputes(r).get((DEFAULT, s))
             paint = "" if d is None else f"; {d.first}:{d.second}"
-            fine = dict(zip(map(tuple, r["sizes"]), r.get("fine") or []))
             if fine.get(DEFAULT) is not None and fine.get(s) is not None:
                 paint += "; on paint {}, {}".format(*paired_blocks(fine[DEFAULT], fine[s]))
             cells.append(f"{'-' if m is None else f'{m:.3f}'} ({pro}, {con}{paint})")

@@ -23,7 +23,7 @@ from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
 from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, with_size
-from arstream.support import frame_mask, line_support, marking_points, paint_dispute, within_reach
+from arstream.support import frame_mask, marking_points, paint_dispute, pixel_support, within_reach
 
 __all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
 
@@ -182,8 +182,9 @@ class SizeScanStage(Stage):
             if mask is None:
                 on_paint = frame_mask(item.frame, reach=0)
                 mask = within_reach(on_paint)
-            supports.append(line_support(cam, mask, points).share)
-            fine.append(line_support(cam, on_paint, points).share)
+            px = cam.project(points)  # (one projection, judged on both masks)
+            supports.append(pixel_support(px, mask).share)
+            fine.append(pixel_support(px, on_paint).share)
             cams[size] = cam
         for (a, b), (pa, pb) in self._samples.items():
             ca = cams.get(a) if a in cams else (self.rivals[a][frame] if a in self.rivals and frame < len(self.rivals[a]) else None)
