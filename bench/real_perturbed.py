@@ -17,7 +17,7 @@ copy holds are also judged against the reference cameras themselves
 Usage::
 
     python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF[:LOOK] ...]
-                                   [--frames N] [--pitch NAME=LxW ...] [--keep DIR]
+                                   [--frames N] [--pitch NAME=LxW ...] [--own-size] [--keep DIR]
 
 Distances are means over the markings in the full-size camera's view, in
 pixels of a 1280-wide frame (:func:`arstream.evaluate.distance_1280`). The
@@ -219,7 +219,9 @@ def reference_distances(name: str, got: list[Camera | None], size: tuple[int, in
     ``name`` (tests/data/real_reference, made independently of the product)
     to ``got``'s camera of the same frame (cameras of a ``size`` copy of the
     clip from frame ``start``): inf where the copy has none. Only the
-    reference frames the copy holds count."""
+    reference frames the copy holds count. Both cameras project the
+    reference's markings, whatever size ``got`` was made at (as
+    ``bench/real_footage.py`` and ``tests/test_real_clips.py`` judge a run)."""
     out = []
     for k, (ref, pitch) in sorted(references(name).items()):
         j = k - start
@@ -230,8 +232,8 @@ def reference_distances(name: str, got: list[Camera | None], size: tuple[int, in
 
 def distances(truth: list[Camera | None], got: list[Camera | None], size: tuple[int, int], pitch: PitchModel) -> np.ndarray:
     """(N,) per-frame distance (px @1280) of ``got`` (cameras of a ``size``
-    frame) to ``truth`` (cameras of the 1280 x 720 full-size frame); NaN where
-    either has none."""
+    frame) to ``truth`` (cameras of the 1280 x 720 full-size frame), both
+    projecting ``pitch``'s markings; NaN where either has none."""
     d = np.full(min(len(truth), len(got)), np.nan)
     for k in range(len(d)):
         a, b = truth[k], got[k]
@@ -240,7 +242,17 @@ def distances(truth: list[Camera | None], got: list[Camera | None], size: tuple[
     return d
 
 
-def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dict]:
+def _size(summary) -> PitchModel:
+    """The pitch size a run of :func:`process` ended at (its summary's)."""
+    return PitchModel(summary.pitch["length"], summary.pitch["width"]) if summary.pitch else PitchModel()
+
+
+def run(clips, variants, starts, frames, pitches, keep: Path | None, own_size: bool = False) -> list[dict]:
+    """Each clip's full-size run, then each copy's (given the full run's
+    size, or with ``own_size`` none: the copy's own scan and estimate, as a
+    user with no ``--pitch`` would run it; its line support measured at the
+    size it found, its distances on the full run's and the references'
+    markings as for any copy)."""
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         work = keep or Path(tmp)
@@ -251,10 +263,10 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dic
             full = work / f"{name}_full.jsonl"
             t0 = time.perf_counter()
             s = process(src, cameras_out=full, handle_signals=False, pitch=pitch)
-            used = PitchModel(s.pitch["length"], s.pitch["width"]) if s.pitch else PitchModel()
+            used = _size(s)
             records = [json.loads(x) for x in full.read_text().splitlines()]
             truth = _cameras(records)
-            rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, records, pitch=used), refs=reference_distances(name, truth, (1280, 720))))
+            rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, records, pitch=used), refs=reference_distances(name, truth, (1280, 720)), pitch=used))
             for v in variants:
                 shape, _, look = v.partition(":")
                 w, h, crf = (int(x) for x in shape.split("x"))
@@ -265,11 +277,12 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None) -> list[dic
                     clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start, look=LOOKS[look] if look else None)
                     out = work / f"{stem}.jsonl"
                     t0 = time.perf_counter()
-                    process(clip, cameras_out=out, handle_signals=False, pitch=(used.length, used.width))
+                    sc = process(clip, cameras_out=out, handle_signals=False, pitch=None if own_size else (used.length, used.width))
                     dt = time.perf_counter() - t0
+                    at = _size(sc) if own_size else used
                     recs = [json.loads(x) for x in out.read_text().splitlines()]
                     d = distances(truth[start:], _cameras(recs), (w, h), used)
-                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}" + (f", {look}" if look else ""), start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=used), dist=d[np.isfinite(d)], frames=len(d), refs=reference_distances(name, _cameras(recs), (w, h), start)))
+                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}" + (f", {look}" if look else ""), start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=at), dist=d[np.isfinite(d)], frames=len(d), refs=reference_distances(name, _cameras(recs), (w, h), start), pitch=at))
     return rows
 
 
@@ -280,18 +293,19 @@ def main(argv=None) -> int:
     ap.add_argument("--starts", nargs="+", type=int, default=[0, 60, 120], help="each variant from these frames of the clip on (other starting conditions)")
     ap.add_argument("--frames", type=int, default=None, help="at most N frames from each start")
     ap.add_argument("--pitch", action="append", default=[], help="NAME=LxW: the pitch size of a clip (given to every run of it)")
+    ap.add_argument("--own-size", action="store_true", help="give the copies no size: each scans and estimates its own (as a user with no --pitch; its line support measured at that size, its distances on the full run's and the references' markings); by default every copy is given its full-size run's size")
     ap.add_argument("--keep", type=Path, default=None, help="keep the re-encoded clips and cameras here")
     args = ap.parse_args(argv)
     if not SHARED.exists():
         print(f"skipped: {SHARED} is absent")
         return 0
-    rows = run(args.clips, args.variants, args.starts, args.frames, pitch_args(args.pitch), args.keep)
-    print("| clip | broadcast | from frame | frames with a camera | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | distance to full size: median | p90 | frames > 5 px | frames > 20 px | reference frames within 5 px | fps |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    rows = run(args.clips, args.variants, args.starts, args.frames, pitch_args(args.pitch), args.keep, args.own_size)
+    print("| clip | broadcast | from frame | pitch (m) | frames with a camera | support median | >= 0.7 | drawn < 0.5 | jitter (px @1280) | distance to full size: median | p90 | frames > 5 px | frames > 20 px | reference frames within 5 px | fps |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         s, d, rd = r["score"], r.get("dist"), r["refs"]
         far = ("n/a",) * 4 if d is None or not len(d) else (_fmt(float(np.median(d))), _fmt(float(np.percentile(d, 90))), _fmt(float(np.mean(d > 5)), pct=True), _fmt(float(np.mean(d > 20)), pct=True))
-        print(f"| {r['clip']} | {r['variant']} | {r['start']} | {_fmt(s.coverage, pct=True)} | {_fmt(s.support_median)} | {_fmt(s.support_ge_0_7, pct=True)} | {s.drawn_below_0_5} | {_fmt(s.jitter_1280)} | {' | '.join(far)} | {int(np.sum(rd <= 5))} of {len(rd)} | {s.frames / r['seconds']:.1f} |")
+        print(f"| {r['clip']} | {r['variant']} | {r['start']} | {r['pitch'].length:.1f} x {r['pitch'].width:.1f} | {_fmt(s.coverage, pct=True)} | {_fmt(s.support_median)} | {_fmt(s.support_ge_0_7, pct=True)} | {s.drawn_below_0_5} | {_fmt(s.jitter_1280)} | {' | '.join(far)} | {int(np.sum(rd <= 5))} of {len(rd)} | {s.frames / r['seconds']:.1f} |")
     runs = [r for r in rows if r.get("dist") is not None]
     if runs:
         # over every re-encoded run: the share of its frames with a camera within / beyond the bounds
