@@ -505,6 +505,28 @@ def test_the_scan_s_passes_over_the_grid():
     assert scan_passes(track).chosen == 0 and len(asked) == 1  # nothing wins: one pass
 
 
+@pytest.mark.parametrize("second_frames", [20, 30, 40])
+def test_a_later_pass_that_gave_up_sooner_is_judged_on_the_first_pass_s_frames(second_frames):
+    # a pass stops where none of its trackers follows the clip
+    # (SizeScanStage.gave_up): the second pass's sizes may cover fewer frames
+    # than the first, or more. They are judged on the first pass's frames, a
+    # frame past their end counting as no camera (a 848 x 478 crf 26 copy of
+    # israel_league_wide from frame 60 raised "every size's supports must be
+    # of the same frames" before, 2026-12-04)
+    from arstream.pipeline.pitch_scan import SizesTracked, scan_passes
+
+    fit = {(100.0, 68.0): 0.97, (100.0, 64.0): 0.99}
+
+    def track(sizes, rivals):
+        n = 30 if (105.0, 68.0) in sizes else second_frames
+        return SizesTracked([[fit.get(s, 0.80)] * n for s in sizes], [[None] * n for _ in sizes], {}, [[fit.get(s, 0.80) - 0.1] * n for s in sizes])
+
+    got = scan_passes(track)
+    assert got.frames == 30 and all(len(s) == 30 for s in got.supports) and all(len(c) == 30 for c in got.cameras)
+    second = got.supports[got.sizes.index((100.0, 64.0))]
+    assert second == [0.99] * min(30, second_frames) + [None] * max(0, 30 - second_frames)
+
+
 @pytest.mark.parametrize(
     "lean, expected",
     [

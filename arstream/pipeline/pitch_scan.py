@@ -322,7 +322,12 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
 
     Returns
     -------
-    SizeScan over every size tracked, with each size's cameras
+    SizeScan over every size tracked, with each size's cameras. A pass
+    stops where none of its sizes' trackers follows the clip
+    (:attr:`SizeScanStage.gave_up`), so a later pass may cover fewer
+    frames than the first, or more: each is judged on the first pass's
+    frames, a frame past its end counting as no camera (as
+    :func:`arstream.pitch_size.with_size` counts a shorter pass).
     """
     from geometry.pitch import PitchModel
 
@@ -333,15 +338,23 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
     fine: dict = {}
     todo = [(default.length, default.width)] + grid_neighbours((default.length, default.width))
     pick = None
+    frames = None
     for first in (True, False):
         new = [s for s in todo if s not in tracked]
         if not new:
             break
         got = track(new, dict(cameras))
-        tracked.update(zip(new, got.supports))
-        cameras.update(zip(new, got.cameras))
+        if frames is None:
+            frames = len(got.supports[0]) if got.supports else 0
+
+        def fit(per_frame):
+            per_frame = list(per_frame)[:frames]
+            return per_frame + [None] * (frames - len(per_frame))
+
+        tracked.update(zip(new, map(fit, got.supports)))
+        cameras.update(zip(new, map(fit, got.cameras)))
         disputes.update(got.disputes)
-        fine.update(zip(new, got.fine or [None] * len(new)))
+        fine.update(zip(new, [fit(f) for f in got.fine] if got.fine else [None] * len(new)))
         pick = choose_size(list(tracked), list(tracked.values()), disputes, fine=[fine.get(s) for s in tracked])  # (over every size tracked so far)
         if pick.chosen != 0:
             todo = grid_neighbours(pick.size)
