@@ -63,7 +63,7 @@ from arstream.tripod import fit_tripod
 from geometry.camera import Camera
 from geometry.pitch import Arc, PitchModel
 
-__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "SIZE_MAX_SD", "SCAN_ASK_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
+__all__ = ["PitchView", "PitchSize", "SizeScan", "estimate_pitch_size", "estimate_view_size", "VIEW_PRIOR_SD", "SIZE_MAX_SD", "SCAN_ASK_SD", "size_derivatives", "corresponding_samples", "needs_scan", "choose_size", "diagonal_step", "with_size", "on_frames", "paired_blocks", "higher_throughout", "SCAN_BELOW", "SCAN_MARGIN", "SCAN_BLOCK", "SCAN_TIE", "SCAN_MIN_BLOCKS", "SCAN_SIGN_LEVEL", "SCAN_LENGTHS", "SCAN_WIDTHS", "SCAN_MIN_FRAMES", "grid_neighbours", "choose_still_size", "still_scan_sizes", "size_dispute", "STILL_SUPPORTED", "STILL_GAIN_RATIO", "SCAN_GAIN_RATIO", "SCAN_DISPUTE_MARGIN", "paint_prefers", "corresponding_points", "compared_point_for_point"]
 
 #: the sizes a broadcast pitch is searched within (Law 1's 90-120 x 45-90 m
 #: narrowed to what a tracked camera can tell apart from a wrong fit)
@@ -752,6 +752,21 @@ def diagonal_step(scan: SizeScan) -> tuple[float, float] | None:
     return (step[0], step[1])
 
 
+def on_frames(per_frame, frames: int) -> list:
+    """A scan pass's per-frame values (line supports, on-paint shares or
+    cameras) on ``frames`` frames: cut there, or padded with None (no camera)
+    where the pass's trackers stopped sooner (:attr:`SizeScanStage.gave_up`
+    of :mod:`arstream.pipeline.pitch_scan`).
+
+    >>> on_frames([0.9, 0.8], 4)
+    [0.9, 0.8, None, None]
+    >>> on_frames([0.9, 0.8, 0.7], 2)
+    [0.9, 0.8]
+    """
+    per_frame = list(per_frame)[:frames]
+    return per_frame + [None] * (frames - len(per_frame))
+
+
 def with_size(scan: SizeScan, size, supports, disputes=None, cameras=None, fine=None) -> SizeScan:
     """The choice made again with one more size (:func:`choose_size` over
     ``scan``'s sizes and ``size``): e.g. the size estimated from the
@@ -772,12 +787,8 @@ def with_size(scan: SizeScan, size, supports, disputes=None, cameras=None, fine=
     if len(scan.supports) != len(scan.sizes):
         raise ValueError("the scan carries no supports to judge another size against")
 
-    def padded(x):
-        x = list(x)[: scan.frames]
-        return x + [None] * (scan.frames - len(x))
-
     old_fine = list(scan.fine) if len(scan.fine) == len(scan.sizes) else [None] * len(scan.sizes)
-    got = choose_size(tuple(scan.sizes) + (tuple(float(v) for v in size),), tuple(scan.supports) + (padded(supports),), {**scan.disputes, **(disputes or {})}, fine=old_fine + [None if fine is None else padded(fine)])
+    got = choose_size(tuple(scan.sizes) + (tuple(float(v) for v in size),), tuple(scan.supports) + (on_frames(supports, scan.frames),), {**scan.disputes, **(disputes or {})}, fine=old_fine + [None if fine is None else on_frames(fine, scan.frames)])
     if scan.cameras and cameras is not None:
         got = dataclasses.replace(got, cameras=tuple(scan.cameras) + (tuple(cameras),))
     return got

@@ -22,7 +22,7 @@ from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, with_size
+from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, on_frames, with_size
 from arstream.support import frame_mask, marking_points, paint_dispute, pixel_support, within_reach
 
 __all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
@@ -326,7 +326,8 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
     stops where none of its sizes' trackers follows the clip
     (:attr:`SizeScanStage.gave_up`), so a later pass may cover fewer
     frames than the first, or more: each is judged on the first pass's
-    frames, a frame past its end counting as no camera (as
+    frames, a frame past its end counting as no camera
+    (:func:`arstream.pitch_size.on_frames`, as
     :func:`arstream.pitch_size.with_size` counts a shorter pass).
     """
     from geometry.pitch import PitchModel
@@ -346,15 +347,10 @@ def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
         got = track(new, dict(cameras))
         if frames is None:
             frames = len(got.supports[0]) if got.supports else 0
-
-        def fit(per_frame):
-            per_frame = list(per_frame)[:frames]
-            return per_frame + [None] * (frames - len(per_frame))
-
-        tracked.update(zip(new, map(fit, got.supports)))
-        cameras.update(zip(new, map(fit, got.cameras)))
+        tracked.update((s, on_frames(v, frames)) for s, v in zip(new, got.supports))
+        cameras.update((s, on_frames(v, frames)) for s, v in zip(new, got.cameras))
         disputes.update(got.disputes)
-        fine.update(zip(new, [fit(f) for f in got.fine] if got.fine else [None] * len(new)))
+        fine.update(zip(new, [on_frames(f, frames) for f in got.fine] if got.fine else [None] * len(new)))
         pick = choose_size(list(tracked), list(tracked.values()), disputes, fine=[fine.get(s) for s in tracked])  # (over every size tracked so far)
         if pick.chosen != 0:
             todo = grid_neighbours(pick.size)
