@@ -410,7 +410,7 @@ def paired_blocks(base, other, block: int = SCAN_BLOCK) -> tuple[int, int]:
     return pro, con
 
 
-def higher_throughout(base, other) -> bool:
+def higher_throughout(base, other, *, unanimous: bool = False) -> bool:
     """Whether the paint backs ``other``'s cameras more than ``base``'s
     throughout the clip, not only in the median: at least
     :data:`SCAN_MIN_BLOCKS` blocks for it (:func:`paired_blocks`) and a
@@ -419,29 +419,58 @@ def higher_throughout(base, other) -> bool:
     against). The blocks are not independent (the tracker carries its
     tripod centre from one to the next), so the level is nominal: on 20
     realistic synthetic clips of a 105 x 68 m pitch no neighbour of it had
-    more than 2 blocks for (``bench/README.md``, "Stop 50")."""
+    more than 2 blocks for (``bench/README.md``, "Stop 50").
+
+    ``unanimous``: and no block against it, how the scan reads the on-paint
+    share (:func:`choose_size`). That share is not saturated, so a size
+    that fits better lays more of its markings on the paint in every view
+    that tells the two apart; one that trades with the view (a long lens's
+    length against its distance) wins some blocks and loses others, and
+    by a sign test over dependent blocks can win many: ``israel_league_wide``
+    (105 x 68 m) tracked at 110 x 68 wins 13 blocks to 2, and its
+    re-encoded copies 4 to 4, 6 to 4 and 6 to 10; its 480p copy from frame
+    60 at 105 x 72, 10 to 3. The synthetic clips the share settles right win
+    8 to 0, 7 to 0 and 5 to 0 (``bench/README.md``, "Stop 73").
+
+    >>> base = [0.80] * 200
+    >>> higher_throughout(base, [0.82] * 175 + [0.79] * 25)  # 7 blocks for, 1 against
+    True
+    >>> higher_throughout(base, [0.82] * 175 + [0.79] * 25, unanimous=True)
+    False
+    """
     from scipy.stats import binomtest
 
     pro, con = paired_blocks(base, other)
+    if unanimous and con:
+        return False
     return bool(pro >= SCAN_MIN_BLOCKS and binomtest(pro, pro + con, 0.5, alternative="greater").pvalue <= SCAN_SIGN_LEVEL)
 
 
-def leans_above(base, other, dispute=None) -> bool:
+def leans_above(base, other, dispute=None, margin: float = 0.0) -> bool:
     """Whether the clip's paint leans towards ``other``'s cameras over
     ``base``'s: more blocks for it than against (:func:`paired_blocks`), or
     more of the disputed points on paint (``dispute``, as for
-    :func:`paint_prefers`), the weakest signs the scan reads (a neighbour
-    that leans the same way as its mirror leaves the dimension open;
-    :func:`choose_size`, :func:`diagonal_step`).
+    :func:`paint_prefers`; with ``margin``, more by that share of the points
+    in view), the weakest signs the scan reads (a neighbour that leans the
+    same way as its mirror leaves the dimension open; :func:`choose_size`,
+    :func:`diagonal_step`).
 
     Parameters
     ----------
     base, other : sequences of the same frames, a line support per frame
         (None where that size's tracker gave no camera)
     dispute : optional PaintDispute of ``base``'s cameras against ``other``'s
+    margin : share of the points in view by which ``other`` must lay more of
+        the disputed points on paint (0: any more)
+
+    >>> from arstream.support import PaintDispute
+    >>> leans_above([0.9] * 50, [0.9] * 50, PaintDispute(1117, 1196, 28154, 40899))  # 79 more points on paint
+    True
+    >>> leans_above([0.9] * 50, [0.9] * 50, PaintDispute(1117, 1196, 28154, 40899), margin=SCAN_DISPUTE_MARGIN)  # 0.2 % of the points in view: a tie
+    False
     """
     pro, con = paired_blocks(base, other)
-    return pro > con or (dispute is not None and dispute.second > dispute.first)
+    return pro > con or (dispute is not None and dispute.second - dispute.first > margin * max(dispute.in_view, 0))
 
 
 def paint_prefers(dispute) -> bool:
@@ -493,7 +522,8 @@ def choose_size(sizes, supports, disputes=None, fine=None) -> SizeScan:
     is higher by :data:`SCAN_MARGIN`, or, its median not lower by the
     margin, when the paint backs it more frame by frame throughout the clip
     (:func:`higher_throughout`), on the paint itself
-    (:func:`higher_throughout` of the ``fine`` shares) or point for point
+    (:func:`higher_throughout` of the ``fine`` shares, ``unanimous``: no
+    block against it) or point for point
     (:func:`paint_prefers`, where the two were compared: a wrong size's
     cameras can lay the points they dispute on another sport's bright
     lines, a synthetic SD clip's 100 x 72 at 0.79 against 105 x 72's 0.88);
@@ -505,8 +535,13 @@ def choose_size(sizes, supports, disputes=None, fine=None) -> SizeScan:
     against the default, a size higher by one of the last two alone also
     needs the size on the other side of the default along that dimension not
     to lean the same way (:func:`leans_above`: more blocks for it than
-    against, or more of the disputed points on paint: a long lens's views
-    that cannot tell 100 from 110 m favour both a little). Another
+    against, or more of the disputed points on paint by
+    :data:`SCAN_DISPUTE_MARGIN` of the points in view: a long lens's views
+    that cannot tell 100 from 110 m favour both a little; fewer are a tie,
+    and hold no win back: a 480-row copy of the artificial-turf clip's
+    penalty-area view, 100 x 68 laying 4504 of the points it disputes with
+    105 x 68 on paint to 1769, 110 x 68 1196 to 1117, 0.2 % of its points
+    in view). Another
     size replaces the default only when it is higher than the default on a
     coverage no lower by more than 5 points (a size that finds cameras on
     fewer frames is not a better fit for scoring only its easy ones), and
@@ -541,10 +576,10 @@ def choose_size(sizes, supports, disputes=None, fine=None) -> SizeScan:
     if len(fine) != len(sizes) or any(f is not None and len(f) != frames for f in fine):
         raise ValueError("the on-paint shares (fine) must be one list per size (or None), of the supports' frames")
 
-    def on_paint_throughout(j: int, k: int) -> bool:
+    def on_paint_throughout(j: int, k: int, unanimous: bool = False) -> bool:
         # (the share of the points on the paint itself, paired frame by frame: the
         # 2 px support saturates within the grid's step, this does not)
-        return fine[j] is not None and fine[k] is not None and higher_throughout(fine[j], fine[k])
+        return fine[j] is not None and fine[k] is not None and higher_throughout(fine[j], fine[k], unanimous=unanimous)
 
     def higher(j: int, k: int) -> bool:
         # (a size without a median, its tracker lost on most frames, is no
@@ -560,7 +595,7 @@ def choose_size(sizes, supports, disputes=None, fine=None) -> SizeScan:
             return False
         if on_paint_throughout(k, j):
             return False  # (the paint itself backs j's cameras throughout)
-        return higher_throughout(supports[j], supports[k]) or paint_prefers(_dispute(disputes, sizes[j], sizes[k])) or on_paint_throughout(j, k)
+        return higher_throughout(supports[j], supports[k]) or paint_prefers(_dispute(disputes, sizes[j], sizes[k])) or on_paint_throughout(j, k, unanimous=True)
 
     def opposite(k: int) -> int | None:
         # (the size on the other side of the default along the one dimension k changes)
@@ -577,7 +612,9 @@ def choose_size(sizes, supports, disputes=None, fine=None) -> SizeScan:
         if med[k] >= med[0] + SCAN_MARGIN:
             return True
         o = opposite(k)
-        return o is None or med[o] is None or not leans_above(supports[0], supports[o], _dispute(disputes, d, sizes[o]))
+        # (the mirror's disputed points count as a lean beyond the margin a win needs
+        # (paint_prefers): fewer are a tie, which holds no win back)
+        return o is None or med[o] is None or not leans_above(supports[0], supports[o], _dispute(disputes, d, sizes[o]), SCAN_DISPUTE_MARGIN)
 
     up = [k > 0 and up(k) for k in range(len(sizes))]
     open_axes = []

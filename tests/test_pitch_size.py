@@ -324,7 +324,8 @@ def test_a_size_higher_on_every_frame_wins_under_the_margin():
         (220, 1419, 400_000, None, 0),  # 6.5 times as many, but 0.003 of the points in view
         (6323, 10603, 180_000, None, 0),  # 0.024 of the points more, but 1.7 times as many
         (511, 2460, 180_000, 2460, 0),  # the other side of the default preferred too: the dimension is open
-        (511, 2460, 180_000, 600, 0),  # the other side leans so (more of its disputed points on paint): open
+        (511, 2460, 180_000, 1500, 0),  # the other side leans so (989 more of its disputed points on paint, over SCAN_DISPUTE_MARGIN of the points in view): open
+        (511, 2460, 180_000, 600, 1),  # 89 more: 0.05 % of the points in view, a tie, which holds no win back
         (511, 2460, 180_000, 511, 1),  # the other side as many: it does not lean
     ],
 )
@@ -400,6 +401,27 @@ def test_the_share_on_the_paint_itself_settles_sizes_the_2px_support_ties(median
     alone = choose_size(sizes, [base, other])
     assert choose_size(sizes, [base, other], fine=[fine, None]).chosen == alone.chosen
     assert alone.chosen == (1 if median_gain > 0 or supports_lean > 0 else 0)
+
+
+@pytest.mark.parametrize("against, chosen", [(0, 1), (1, 0), (3, 0)])
+def test_the_paint_itself_lifts_a_size_only_where_no_block_goes_against_it(against, chosen):
+    # the 2 px support ties; on the paint itself 105 x 72 is higher in 10
+    # blocks of the clip and lower in ``against`` of the others (the rest
+    # tie). 10 to 1 and 10 to 3 pass the sign test, but a size that fits
+    # better is not worse in any view that tells the two apart: one that
+    # wins some blocks and loses others trades with the view
+    # (israel_league_wide's 480p copy from frame 60: 105 x 72 wins 10 to 3,
+    # and the run ends at 103.5 x 71.4 m, its reference frames 20-29 px off)
+    from arstream.pitch_size import choose_size, paired_blocks
+
+    n = 25 * 13
+    base = _noisy(n, 21, 0.90, 0.95)
+    fine = _noisy(n, 22, 0.65, 0.72)
+    lean = [0.02] * (25 * 10) + [-0.02] * (25 * against) + [0.0] * (25 * (3 - against))
+    other = [f + d for f, d in zip(fine, lean)]
+    assert paired_blocks(fine, other) == (10, against)
+    got = choose_size([(105.0, 68.0), (105.0, 72.0)], [base, list(base)], fine=[fine, other])
+    assert got.chosen == chosen, got.describe()
 
 
 def test_choose_size_refuses_on_paint_shares_of_other_frames():
@@ -628,6 +650,43 @@ def test_the_scan_on_tracked_clips_with_the_share_on_the_paint_itself(clip, chos
     disputes = {(tuple(a), tuple(b)): PaintDispute(*v) for a, b, *v in row["disputes"]}
     assert scan_passes(lambda todo, rivals: SizesTracked([table[s] for s in todo], disputes=disputes, fine=[fine[s] for s in todo])).size == chosen
     assert scan_passes(lambda todo, rivals: SizesTracked([table[s] for s in todo], disputes=disputes)).size == at_2px
+
+
+@pytest.mark.parametrize(
+    "clip, chosen, fine_blocks",
+    [
+        # 105 x 68 m: on the paint itself 110 x 68 wins 13 blocks to 2, and the
+        # mirror's lean (100 x 68's 52 more disputed points of 197 000 in view)
+        # is below the margin: the lost blocks hold the length
+        ("israel_league_wide", (105.0, 68.0), {(110.0, 68.0): (13, 2)}),
+        # its 848 x 478 crf 26 copy from frame 60: 105 x 72 won 10 blocks to 3 on
+        # the paint itself and the run ended at 103.5 x 71.4 m, 20-29 px off
+        ("israel_league_wide_848x478_26_from60", (105.0, 68.0), {(105.0, 72.0): (10, 3)}),
+        # the turf's 480-row penalty view from frame 120: 110 x 68's lean of 0.2 % of
+        # the points in view is a tie, and 100 x 68's point-for-point win stands
+        ("artificial_turf_multisport_854x480_12_from120", (100.0, 68.0), {}),
+    ],
+)
+def test_the_scan_on_real_copies(clip, chosen, fine_blocks):
+    # the scan's inputs recorded on the shared real clips and their re-encoded
+    # copies (tests/data/size_scan/real_copies.json, bench/README.md "Stop 73"),
+    # chosen again over every size the recorded scan tracked
+    import json
+    from pathlib import Path
+
+    from arstream.pitch_size import SCAN_DISPUTE_MARGIN, _dispute, choose_size, leans_above, paired_blocks
+    from arstream.support import PaintDispute
+
+    rows = {r["clip"]: r for r in json.loads((Path(__file__).parent / "data" / "size_scan" / "real_copies.json").read_text())}
+    row = rows[clip]
+    sizes = [tuple(s) for s in row["sizes"]]
+    disputes = {(tuple(a), tuple(b)): PaintDispute(*v) for a, b, *v in row["disputes"]}
+    for size, blocks in fine_blocks.items():
+        assert paired_blocks(row["fine"][0], row["fine"][sizes.index(size)]) == blocks
+    if clip == "israel_league_wide":
+        short = sizes.index((100.0, 68.0))
+        assert not leans_above(row["supports"][0], row["supports"][short], _dispute(disputes, sizes[0], sizes[short]), SCAN_DISPUTE_MARGIN)
+    assert choose_size(sizes, row["supports"], disputes, fine=row["fine"]).size == chosen
 
 
 def test_with_size_judges_one_more_size():
