@@ -208,3 +208,27 @@ def test_a_file_inside_black_bars_is_streamed_on_its_picture(clip, tmp_path):
     assert "picture inside black bars" in s.line()
     sc = score(read_jsonl(clip / "truth.jsonl"), read_jsonl(tmp_path / "c.jsonl"), (640, 360))
     assert sc.coverage >= 0.9 and sc.median <= 0.5, (sc.coverage, sc.median, sc.p95)
+
+
+def test_a_live_run_says_when_the_paint_backs_the_default_size_poorly(tmp_path):
+    # a live source cannot be scanned at other sizes as process does: the
+    # operator is told once, by process's rule (the median line support of the
+    # judged frames below SCAN_BELOW), and the summary records it; a clip of a
+    # 105 x 68 m pitch, and the same clip given its size, are not flagged
+    from arstream.pitch_size import SCAN_BELOW
+
+    said = {}
+    for name, drawn_at, given in [("off", (110, 64), None), ("given", (110, 64), (110, 64)), ("default", None, None)]:
+        d = tmp_path / name
+        if not (tmp_path / str(drawn_at)).exists():
+            generate(tmp_path / str(drawn_at), preset="wide", seed=4, frames=130, size=(640, 360), pitch=drawn_at)
+        msgs = []
+        s = arstream.stream(str(tmp_path / str(drawn_at) / "clip.mp4"), cameras_out=d.with_suffix(".jsonl"), handle_signals=False, warn=msgs.append, pitch=given)
+        said[name] = (msgs, s)
+    msgs, s = said["off"]
+    assert len(msgs) == 1 and "fit 105 x 68 m poorly" in msgs[0] and "--pitch" in msgs[0], msgs
+    assert s.pitch["fits_poorly"] < SCAN_BELOW and s.pitch["source"] == "default"
+    assert msgs[0] in s.pitch_text
+    for name in ("given", "default"):
+        msgs, s = said[name]
+        assert msgs == [] and "fits_poorly" not in s.pitch and "poorly" not in (s.pitch_text or ""), (name, msgs, s.pitch)

@@ -29,7 +29,7 @@ def add_view_arguments(p) -> None:
     def pitch(text: str):
         return "auto" if text.strip().lower() == "auto" else _pitch(text)
 
-    p.add_argument("--pitch", type=pitch, default=None, metavar="LxW|auto", help="the pitch's size in metres when known, e.g. 100x64 (default 105x68; with process, a clip whose markings fit it poorly is tracked again at other sizes and the best one estimated, which takes several times as long: give the size to skip it); 'auto': start from 105x68 and estimate the size from the clip's first views (experimental, see docs/real-footage.md)")
+    p.add_argument("--pitch", type=pitch, default=None, metavar="LxW|auto", help="the pitch's size in metres when known, e.g. 100x64 (default 105x68; with process, a clip whose markings fit it poorly is tracked again at other sizes and the best one estimated, which takes several times as long: give the size to skip it; with stream, a warning once the first 30 s fit it poorly: docs/live.md); 'auto': start from 105x68 and estimate the size from the clip's first views (experimental, see docs/real-footage.md)")
     p.add_argument(
         "--pixel-aspect", type=_positive(float), default=None, metavar="A",
         help="a pixel's width over its height, for frames resized from another shape (default: the stream's sample aspect ratio, else 1); the cameras' K[1][1]/K[0][0] is A",
@@ -124,7 +124,7 @@ def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
     missing stages and input damage; the exit code (1 for a damaged input)."""
     print(json.dumps(summary.to_dict(), indent=2) if args.json else summary.line())
     pitch = summary.pitch or {}
-    if not args.json and summary.pitch_text and (pitch.get("source") in ("estimated", "scanned") or "scan" in pitch):
+    if not args.json and summary.pitch_text and (pitch.get("source") in ("estimated", "scanned") or "scan" in pitch or "fits_poorly" in pitch):
         print(summary.pitch_text)
         if pitch.get("source") != "default":
             print(f"(judge these cameras at this size: arstream eval --pitch {pitch['length']:.1f}x{pitch['width']:.1f})")

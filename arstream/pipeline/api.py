@@ -16,7 +16,7 @@ from arstream.errors import InputError, SourceLost
 from arstream.pipeline.encode import EncodeStage
 from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Stage, ThreadedStage
-from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, JUDGE_EVERY, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, TrackStage
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, JUDGE_EVERY, Analysis, CamerasInStage, CamerasOutStage, DetectStage, MatteStage, RenderStage, SizeWatchStage, TrackStage
 from arstream.pipeline.summary import Interrupted, Summary
 from arstream.source import DEFAULT_RECONNECT, DEFAULT_TIMEOUT, VideoSource, open_live
 
@@ -611,6 +611,18 @@ def _note_pitch(summary: Summary, track_box: list) -> None:
         summary.pitch_text = size.describe()
 
 
+def _note_fit(summary: Summary, watch_box: list) -> None:
+    """A live run's poor fit of the size tracked with (:class:`SizeWatchStage`),
+    if it found one, into ``summary``: ``pitch["fits_poorly"]`` (the median
+    line support it was found at) and the operator's message after
+    ``pitch_text``."""
+    watch = watch_box[0] if watch_box else None
+    if watch is None or watch.median is None or summary.pitch is None:
+        return
+    summary.pitch = {**summary.pitch, "fits_poorly": round(watch.median, 3)}
+    summary.pitch_text = f"{summary.pitch_text}; {watch.message()}"
+
+
 def render_clip(
     input,
     cameras,
@@ -723,6 +735,7 @@ def stream(
         Stopped by a signal, after the outputs were finalised.
     """
     from arstream.live import RerunLogger, parse_rerun
+    from arstream.pipeline.pitch_scan import SCAN_MAX_FRAMES
 
     warn = warn or (lambda msg: print(f"arstream: warning: {msg}", file=sys.stderr))
     mode = parse_rerun(rerun)
@@ -738,6 +751,7 @@ def stream(
         an = Analysis(W, H, analysis_width, pixel_aspect=pixel_aspect or getattr(src, "pixel_aspect", 1.0), area=area)
         logger_box: list = []
         track_box: list = []
+        watch_box: list = []
 
         def make_logger():
             if mode is None:
@@ -750,6 +764,8 @@ def stream(
             [
                 lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an, pitch=pitch)),
+                # (no size given: say so when the paint backs the default poorly, as process would scan)
+                lambda: _boxed(watch_box, SizeWatchStage(track_box[0], warn, window=SCAN_MAX_FRAMES // JUDGE_EVERY)) if pitch is None and track_box[0].available else None,
                 make_logger,
                 lambda: RenderStage(W, H, scene),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
@@ -770,3 +786,4 @@ def stream(
             raise
         finally:
             _note_pitch(pipe.summary, track_box)
+            _note_fit(pipe.summary, watch_box)

@@ -31,6 +31,7 @@ __all__ = [
     "DetectStage",
     "MatteStage",
     "TrackStage",
+    "SizeWatchStage",
     "CamerasInStage",
     "RenderStage",
     "CamerasOutStage",
@@ -418,6 +419,76 @@ class TrackStage(Stage):
         self.held.clear()
         out.sort(key=lambda it: it.index)
         return out
+
+
+class SizeWatchStage(Stage):
+    """Live: whether the frames' paint backs the pitch size tracked with, said once.
+
+    :func:`arstream.pipeline.process` runs a clip whose markings fit the
+    default 105 x 68 m poorly again at other sizes
+    (:mod:`arstream.pipeline.pitch_scan`); a live source cannot be run
+    twice, and on a pitch of another size its cameras lay the markings
+    metres off (``artificial_turf_multisport``, about 100 x 67 m, streamed
+    at 105 x 68: its reference frames 8-70 px off, each drawn). This stage
+    applies the rule by which ``process`` asks for a scan
+    (:func:`arstream.pitch_size.needs_scan` on :attr:`TrackStage.supports`:
+    their median below :data:`arstream.pitch_size.SCAN_BELOW`, with at
+    least :data:`arstream.pitch_size.SCAN_MIN_FRAMES` judged frames with a
+    camera) once, over the scan's window of the stream's first frames (or
+    the whole stream, if shorter: ``process`` judges its whole first run,
+    and a long lens's opening may score lower than the rest), and where it
+    holds calls ``report`` with :meth:`message`. Frames pass unchanged.
+
+    Parameters
+    ----------
+    track : the run's TrackStage (its ``supports`` are read)
+    report : callable(str), e.g. a warning on stderr
+    window : judged frames watched (the scan's frames over :data:`JUDGE_EVERY`)
+    """
+
+    name = "size-watch"
+
+    def __init__(self, track: "TrackStage", report: Callable[[str], None], *, window: int):
+        self.track = track
+        self.report = report
+        self.window = int(window)
+        #: the median line support when the fit was found poor, else None
+        self.median: float | None = None
+        #: judged frames with a camera behind :attr:`median`
+        self.judged = 0
+        self.done = False
+
+    def process(self, item: Item) -> list[Item]:
+        if not self.done and len(self.track.supports) >= self.window:
+            self._judge()
+        return [item]
+
+    def flush(self) -> list[Item]:
+        if not self.done:
+            self._judge()
+        return []
+
+    def _judge(self) -> None:
+        from arstream.pitch_size import needs_scan
+
+        self.done = True
+        supports = self.track.supports[: self.window]
+        if needs_scan(supports):
+            values = [v for v in supports if v is not None]
+            self.median, self.judged = float(np.median(values)), len(values)
+            self.report(self.message())
+
+    def message(self) -> str:
+        """What the operator is told (after the fit was found poor)."""
+        from arstream.pitch_size import SCAN_BELOW
+
+        pitch = self.track.tracker.pitch if self.track.tracker is not None else None
+        size = f"{pitch.length:g} x {pitch.width:g} m" if pitch is not None else "the default size"
+        return (
+            f"the pitch's markings fit {size} poorly (median line support {self.median:.2f} over {self.judged} judged frames, below {SCAN_BELOW:g}): "
+            "graphics may be drawn metres off. A live run does not estimate the size; give it with --pitch LxW "
+            "(arstream process on a recording from this venue estimates it)"
+        )
 
 
 class CamerasInStage(Stage):
