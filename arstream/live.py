@@ -16,7 +16,7 @@ Entities (timelines ``frame`` (sequence) and ``time`` (the frame's pts)):
 - ``input/ellipse``   detected centre-circle ellipse(s) (``rr.LineStrips2D``)
 - ``input/model``     the pitch model reprojected with the solved camera
 - ``output/frame``    the composited output, JPEG
-- ``world/pitch``     the pitch markings in the pitch frame (static, ``rr.LineStrips3D``)
+- ``world/pitch``     the pitch markings in the pitch frame, at the size solved with (static, ``rr.LineStrips3D``)
 - ``world/camera``    the camera in the pitch frame: ``rr.Transform3D``
   (camera -> pitch: rotation R^T, translation the camera centre) and
   ``rr.Pinhole`` (K, image size, OpenCV axes RDF); cleared on lost frames
@@ -174,17 +174,22 @@ class RerunLogger:
     name : str, shown as the recording's name
     analysis : arstream.pipeline.stages.Analysis, optional: detections are at its size
         and are drawn mapped to frame pixels
+    pitch : the PitchModel the cameras are solved at, or a callable returning
+        it (the tracker's, which ``--pitch auto`` changes during a run);
+        ``world/pitch`` and ``input/model`` are drawn at it (default 105 x 68 m)
 
     Two pipeline stages: ``input_stage`` (before rendering: input frame,
     detections, camera, scalars) and ``output_stage`` (after: the composite;
     its ``close`` flushes and closes the recording).
     """
 
-    def __init__(self, mode, width: int, height: int, *, bind: str = "127.0.0.1", port: int = 9876, jpeg_quality: int = 75, warn=None, name: str = "arstream", analysis=None):
+    def __init__(self, mode, width: int, height: int, *, bind: str = "127.0.0.1", port: int = 9876, jpeg_quality: int = 75, warn=None, name: str = "arstream", analysis=None, pitch=None):
         import rerun as rr
 
         self.rr = rr
         self.analysis = analysis
+        self._pitch = pitch
+        self._pitch_size = None
         self.mode = mode
         self.width, self.height = width, height
         self.jpeg = [int(cv2.IMWRITE_JPEG_QUALITY), int(min(max(jpeg_quality, 1), 100))]
@@ -260,14 +265,30 @@ class RerunLogger:
     # ------------------------------------------------------------------ static
     def _log_static(self) -> None:
         rr, rec = self.rr, self.rec
-        from geometry.pitch import PitchModel
-
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        self._pitch_pts = [np.column_stack([p, np.zeros(len(p))]) for p in PitchModel().polylines(0.5)]
-        rec.log("world/pitch", rr.LineStrips3D(self._pitch_pts, colors=[(230, 230, 230)], radii=[0.12]), static=True)
+        self._sync_pitch()
         names = {"camera/focal": "focal length (px)", "camera/pan": "pan (deg)", "camera/tilt": "tilt (deg)", "camera/confidence": "confidence"}
         for path, label in names.items():
             rec.log(path, rr.SeriesLines(names=[label]), static=True)
+
+    def pitch(self):
+        """The PitchModel the cameras are solved at now: ``pitch`` as given
+        (a PitchModel, or a callable returning the tracker's, which an
+        estimate may change during the run), 105 x 68 m by default."""
+        from geometry.pitch import PitchModel
+
+        p = self._pitch() if callable(self._pitch) else self._pitch
+        return p if p is not None else PitchModel()
+
+    def _sync_pitch(self) -> None:
+        """Log ``world/pitch`` (and keep the polylines ``input/model`` projects)
+        at :meth:`pitch`, when it is not the size logged last."""
+        p = self.pitch()
+        if (p.length, p.width) == self._pitch_size:
+            return
+        self._pitch_size = (p.length, p.width)
+        self._pitch_pts = [np.column_stack([q, np.zeros(len(q))]) for q in p.polylines(0.5)]
+        self.rec.log("world/pitch", self.rr.LineStrips3D(self._pitch_pts, colors=[(230, 230, 230)], radii=[0.12]), static=True)
 
     def _time(self, item) -> None:
         self.rec.set_time("frame", sequence=int(item.index))
@@ -285,6 +306,7 @@ class RerunLogger:
             return
         rr, rec = self.rr, self.rec
         self._time(item)
+        self._sync_pitch()
         rec.log("input/frame", rr.EncodedImage(contents=self._jpeg(item.frame.image), media_type="image/jpeg"))
         det = item.detections
         an = self.analysis

@@ -232,3 +232,21 @@ def test_a_live_run_says_when_the_paint_backs_the_default_size_poorly(tmp_path):
     for name in ("given", "default"):
         msgs, s = said[name]
         assert msgs == [] and "fits_poorly" not in s.pitch and "poorly" not in (s.pitch_text or ""), (name, msgs, s.pitch)
+
+
+def test_rerun_draws_the_pitch_at_the_size_given(tmp_path):
+    # the viewer's pitch (world/pitch) and the model reprojected over the
+    # input (input/model) are the size the cameras are solved at, not 105 x 68
+    from geometry.pitch import PitchModel
+
+    d = tmp_path / "clip"
+    generate(d, preset="wide", seed=4, frames=5, size=(640, 360), pitch=(110, 64))
+    for pitch in [(110, 64), None]:
+        rrd = tmp_path / f"{pitch}.rrd"
+        arstream.stream(str(d / "clip.mp4"), rerun=("save", rrd), pitch=pitch, handle_signals=False)
+        out = subprocess.run([RERUN, "rrd", "print", "-vvv", str(rrd)], capture_output=True, text=True, env=dict(os.environ, RERUN_ANALYTICS="0"))
+        assert out.returncode == 0, out.stderr
+        chunk = out.stdout[out.stdout.index("entity_path: /world/pitch") :]
+        first = [float(v) for v in re.search(r"\[\[(-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\]", chunk).groups()]
+        want = PitchModel(*(pitch or (105.0, 68.0))).polylines(0.5)[0][0]
+        assert abs(first[0] - want[0]) < 1e-3 and abs(first[1] - want[1]) < 1e-3 and first[2] == 0.0, (pitch, first, want)

@@ -756,7 +756,9 @@ def stream(
         def make_logger():
             if mode is None:
                 return None
-            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an)
+            # (the model is drawn at the size the tracker solves at: given, or estimated with "auto")
+            tracker = getattr(track_box[0], "tracker", None) if track_box else None
+            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an, pitch=(lambda: tracker.pitch) if tracker is not None else None)
             logger_box.append(lg)
             return lg.input_stage
 
