@@ -2,8 +2,8 @@
 
 A scene file (TOML shown; JSON has the same structure, ``"objects": [...]``)::
 
-    [pitch]                 # optional; the pitch the objects stand on
-    length = 105.0          # metres along X
+    [pitch]                 # optional; the pitch the objects stand on (default:
+    length = 105.0          # the size the run solves at, given or estimated)
     width = 68.0            # metres along Y (default y_range of offside lines)
 
     [render]                # optional
@@ -87,7 +87,7 @@ def _number(where: str, key: str, v, lo: float, hi: float) -> float:
     return float(v)
 
 
-def scene_from_dict(data: dict, base_dir=".", source: str = "scene") -> Scene:
+def scene_from_dict(data: dict, base_dir=".", source: str = "scene", pitch=None) -> Scene:
     """Build a :class:`Scene` from the parsed contents of a scene file.
 
     Parameters
@@ -95,6 +95,8 @@ def scene_from_dict(data: dict, base_dir=".", source: str = "scene") -> Scene:
     data : dict with optional ``pitch``, ``render`` tables and an ``objects`` list
     base_dir : folder that relative image paths are resolved against
     source : name used in error messages (the file name)
+    pitch : (length, width) metres of the pitch the run solves at, for a scene
+        without a ``pitch`` table (default 105 x 68); a ``pitch`` table wins
 
     Raises
     ------
@@ -106,6 +108,7 @@ def scene_from_dict(data: dict, base_dir=".", source: str = "scene") -> Scene:
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise ValueError(f"{source}: unknown top-level key '{unknown[0]}' (allowed: objects, pitch, render)")
+    run_length, run_width = (105.0, 68.0) if pitch is None else (float(v) for v in pitch)
     pitch = data.get("pitch", {})
     rend = data.get("render", {})
     for name, table, keys in (("pitch", pitch, {"length", "width"}), ("render", rend, {"samples", "matte_softness"})):
@@ -114,8 +117,8 @@ def scene_from_dict(data: dict, base_dir=".", source: str = "scene") -> Scene:
         bad = sorted(set(table) - keys)
         if bad:
             raise ValueError(f"{source}: [{name}]: unknown key '{bad[0]}' (allowed: {', '.join(sorted(keys))})")
-    length = _number(f"{source}: [pitch]", "length", pitch.get("length", 105.0), 90.0, 120.0)
-    width = _number(f"{source}: [pitch]", "width", pitch.get("width", 68.0), 45.0, 90.0)
+    length = _number(f"{source}: [pitch]", "length", pitch.get("length", run_length), 90.0, 120.0)
+    width = _number(f"{source}: [pitch]", "width", pitch.get("width", run_width), 45.0, 90.0)
     samples = rend.get("samples", 4)
     if isinstance(samples, bool) or not isinstance(samples, int) or not 0 <= samples <= 16:
         raise ValueError(f"{source}: [render]: 'samples' must be an integer 0..16, got {samples!r}")
@@ -157,8 +160,9 @@ def scene_from_dict(data: dict, base_dir=".", source: str = "scene") -> Scene:
     return Scene(objects=objects, pitch_length=length, pitch_width=width, samples=samples, matte_softness=soft, source=source)
 
 
-def load_scene(path) -> Scene:
-    """Read a scene from a ``.toml`` or ``.json`` file (see the module docstring).
+def load_scene(path, pitch=None) -> Scene:
+    """Read a scene from a ``.toml`` or ``.json`` file (see the module docstring);
+    ``pitch``: as for :func:`scene_from_dict`.
 
     Raises
     ------
@@ -185,9 +189,11 @@ def load_scene(path) -> Scene:
         raise ValueError(f"{path}: invalid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file") from None
-    return scene_from_dict(data, base_dir=path.parent, source=str(path))
+    return scene_from_dict(data, base_dir=path.parent, source=str(path), pitch=pitch)
 
 
-def default_scene() -> Scene:
-    """The demo scene (``render/scenes/demo.toml``): a logo on the grass and an offside line."""
-    return load_scene(DEMO_SCENE)
+def default_scene(pitch=None) -> Scene:
+    """The demo scene (``render/scenes/demo.toml``): a logo on the grass and an
+    offside line across the pitch the run solves at (``pitch``: (length,
+    width) metres, default 105 x 68)."""
+    return load_scene(DEMO_SCENE, pitch=pitch)

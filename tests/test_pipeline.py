@@ -928,3 +928,34 @@ def test_a_clip_inside_black_bars_is_tracked_on_its_picture(clip, tmp_path, vari
             assert d.max() == inside.max() or d.max() <= 24
             drawn = max(drawn, int(inside.max()))
         assert drawn > 60
+
+
+def test_the_demo_offside_line_ends_at_the_touchlines_of_the_pitch_given(tmp_path):
+    # process --pitch 100x64 with the demo scene: the offside line (x = 21.5 m)
+    # spans 64 m, not 105 x 68's 68 m. Its drawn pixels, carried back to the
+    # pitch plane by the camera they were drawn with, lie within the touchlines
+    # (32 m + its anti-aliased edge); a scene that states 68 m draws 2 m past them
+    generate(tmp_path, preset="wide", seed=4, frames=3, size=(640, 360), pitch=(100, 64))
+    stated = tmp_path / "stated.toml"
+    stated.write_text('[pitch]\nlength = 105.0\nwidth = 68.0\n[[objects]]\ntype = "offside_line"\nx = 21.5\nwidth = 0.2\ncolor = "#ffd21f"\n')
+
+    def frames(path):
+        with av.open(str(path)) as c:
+            return [f.to_ndarray(format="bgr24") for f in c.decode(video=0)]
+
+    beyond = {}
+    for name, scene in [("demo", None), ("stated", stated)]:
+        out, cams = tmp_path / f"{name}.mp4", tmp_path / f"{name}.jsonl"
+        arstream.process(str(tmp_path / "clip.mp4"), str(out), cameras_out=str(cams), pitch=(100, 64), scene=scene, handle_signals=False)
+        line = far = 0
+        for before, after, rec in zip(frames(tmp_path / "clip.mp4"), frames(out), read_jsonl(cams)):
+            assert rec["H"] is not None
+            v, u = np.nonzero(np.abs(after.astype(int) - before.astype(int)).sum(axis=2) > 60)
+            P = np.linalg.inv(np.asarray(rec["H"], float)) @ np.vstack([u, v, np.ones_like(u)])
+            X, Y = P[0] / P[2], P[1] / P[2]
+            on = np.abs(X - 21.5) < 1.0  # (the line's pixels, not the logo's)
+            line += int(on.sum())
+            far += int((np.abs(Y[on]) > 32.6).sum())
+        assert line > 1000, (name, line)
+        beyond[name] = far / line
+    assert beyond["demo"] <= 0.01 and beyond["stated"] >= 0.04, beyond

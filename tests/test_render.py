@@ -467,6 +467,24 @@ def test_default_scene_has_logo_and_offside_line():
     assert scene.objects[1].y_range == (-34.0, 34.0)
 
 
+def test_a_scene_without_a_pitch_table_stands_on_the_run_s_pitch(tmp_path):
+    # the offside line spans the pitch the run solves at (given or estimated),
+    # not 105 x 68's 68 m: 2 m past each touchline of a 64 m wide pitch
+    from arstream.pipeline.stages import load_scene_arg
+    from geometry.pitch import PitchModel
+
+    demo = default_scene((100.0, 64.0))
+    assert demo.objects[1].y_range == (-32.0, 32.0) and (demo.pitch_length, demo.pitch_width) == (100.0, 64.0)
+    assert load_scene_arg(None, PitchModel(110.0, 72.0)).objects[1].y_range == (-36.0, 36.0)
+    bare = tmp_path / "bare.toml"
+    bare.write_text('[[objects]]\ntype = "offside_line"\nx = 5.0\n')
+    assert load_scene(bare, pitch=(100.0, 64.0)).objects[0].y_range == (-32.0, 32.0)
+    assert load_scene(bare).objects[0].y_range == (-34.0, 34.0)
+    own = tmp_path / "own.toml"
+    own.write_text('[pitch]\nlength = 105.0\nwidth = 70.0\n[[objects]]\ntype = "offside_line"\nx = 5.0\n')
+    assert load_scene_arg(str(own), PitchModel(100.0, 64.0)).objects[0].y_range == (-35.0, 35.0)  # (the file's table wins)
+
+
 def test_toml_and_json_scenes_agree(tmp_path):
     data = {
         "pitch": {"length": 100.0, "width": 64.0},

@@ -80,9 +80,9 @@ def check_clip_args(args) -> None:
     """Check the options the clip commands share, before any work: ``--frames``
     (1 or more), ``-o`` and ``--cameras-out`` (not the same file), and
     ``--scene`` (loaded once here, so a bad file is exit 2 before decoding and
-    an empty one is a warning; ``args.scene`` becomes the loaded scene, which
-    the library functions take as well as a path). Options a command does not
-    have are skipped."""
+    an empty one is a warning; ``args.scene`` stays the path, which each run
+    loads again so that a scene without a ``[pitch]`` table stands on the
+    size that run solves at). Options a command does not have are skipped."""
     from arstream.errors import InputError
 
     check_frames(getattr(args, "frames", None))
@@ -90,7 +90,7 @@ def check_clip_args(args) -> None:
     if output is not None and cameras is not None and os.path.abspath(output) == os.path.abspath(cameras):
         raise InputError(f"-o and --cameras-out are the same file ({output}): give the cameras a file of their own, e.g. cameras.jsonl")
     if isinstance(getattr(args, "scene", None), (str, os.PathLike)):
-        args.scene = load_scene(args.scene)
+        load_scene(args.scene)
 
 
 def run_clip(call: Callable, args, *, label: str, verb: str, finalised: str, missing: Callable[[str], str]) -> int:

@@ -129,6 +129,13 @@ def _boxed(box: list, stage):
     return stage
 
 
+def _run_pitch(box: list):
+    """The PitchModel the tracker of the TrackStage in ``box`` starts at (given,
+    a scan's size, or 105 x 68), or None without one: the size a scene
+    without a ``[pitch]`` table stands on (:class:`RenderStage`)."""
+    return getattr(getattr(box[0], "tracker", None), "pitch", None) if box else None
+
+
 def _hints_of(box: list):
     """The detector's hints from the tracker of the TrackStage in ``box`` (filled
     once it is built): a callable for :class:`DetectStage`, frame -> ``{motion,
@@ -283,7 +290,7 @@ def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio,
             [
                 lambda: _overlapped(DetectStage(W, H, analysis=an, hints=_hints_of(track_box)), overlap and not single),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=lag, enabled=_has("arstream.detect"), analysis=an, pitch=pitch, estimate_pitch=estimate_pitch, watch_pitch=watch_pitch)),
-                (lambda: RenderStage(W, H, scene)) if output is not None else (lambda: None),
+                (lambda: RenderStage(W, H, scene, pitch=_run_pitch(track_box))) if output is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),
             ],
@@ -769,7 +776,7 @@ def stream(
                 # (no size given: say so when the paint backs the default poorly, as process would scan)
                 lambda: _boxed(watch_box, SizeWatchStage(track_box[0], warn, window=SCAN_MAX_FRAMES // JUDGE_EVERY)) if pitch is None and track_box[0].available else None,
                 make_logger,
-                lambda: RenderStage(W, H, scene),
+                lambda: RenderStage(W, H, scene, pitch=_run_pitch(track_box)),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
                 (lambda: EncodeStage(output, src, audio=not src.is_live, rebase=src.is_live)) if output is not None else (lambda: None),
                 (lambda: CamerasOutStage(cameras_out)) if cameras_out is not None else (lambda: None),

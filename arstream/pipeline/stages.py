@@ -541,15 +541,18 @@ class CamerasInStage(Stage):
     def close(self) -> None:
         self.f.close()
 
-def load_scene_arg(scene):
-    """A :class:`render.Scene` from None (the demo scene), a path, or a Scene."""
+def load_scene_arg(scene, pitch=None):
+    """A :class:`render.Scene` from None (the demo scene), a path, or a Scene;
+    ``pitch``: the PitchModel the run solves at (None: 105 x 68 m), which a
+    scene without a ``[pitch]`` table, the demo's among them, stands on."""
     import render
 
+    size = None if pitch is None else (pitch.length, pitch.width)
     if scene is None:
-        return render.default_scene()
+        return render.default_scene(size)
     if isinstance(scene, render.Scene):
         return scene
-    return render.load_scene(scene)
+    return render.load_scene(scene, pitch=size)
 
 
 class RenderStage(Stage):
@@ -561,7 +564,7 @@ class RenderStage(Stage):
 
     name = "render"
 
-    def __init__(self, width: int, height: int, scene=None, *, renderer=None, fine_key: bool = True):
+    def __init__(self, width: int, height: int, scene=None, *, renderer=None, fine_key: bool = True, pitch=None):
         from render import GLContextError, Renderer
         from render.kernels import warm_up
 
@@ -572,7 +575,7 @@ class RenderStage(Stage):
         self._key_i420: GrassKeyI420 | None = None
         if renderer is None:
             try:
-                renderer = Renderer(width, height, load_scene_arg(scene))
+                renderer = Renderer(width, height, load_scene_arg(scene, pitch))
             except GLContextError as exc:
                 raise ArstreamError(f"{exc} (or leave out -o to write only cameras.jsonl)") from None
         self.renderer = renderer
