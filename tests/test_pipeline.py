@@ -959,3 +959,60 @@ def test_the_demo_offside_line_ends_at_the_touchlines_of_the_pitch_given(tmp_pat
         assert line > 1000, (name, line)
         beyond[name] = far / line
     assert beyond["demo"] <= 0.01 and beyond["stated"] >= 0.04, beyond
+
+
+def test_a_clip_longer_than_the_scan_decides_its_size_on_its_opening(tmp_path, monkeypatch):
+    # a clip longer than the scan's window (made 50 frames here) whose size is
+    # not 105 x 68: the runs that decide the size track the window and write
+    # nothing; the clip is tracked in full twice (the default's run, then the
+    # size decided), not once more per decision. The outputs are the last
+    # run's, whole, and as right as the truth allows
+    from arstream.evaluate import score
+    from arstream.pipeline import api
+    from geometry.pitch import PitchModel
+
+    generate(tmp_path, preset="wide", seed=4, frames=100, size=(640, 360), pitch=(110, 64))
+    runs = []
+    once = api._process_once
+
+    def counted(input, output, cameras_out, **kw):
+        runs.append((kw["max_frames"], output is not None or cameras_out is not None))
+        return once(input, output, cameras_out, **kw)
+
+    monkeypatch.setattr(api, "_process_once", counted)
+    monkeypatch.setattr(api, "DECISION_FRAMES", 50)
+    s = arstream.process(str(tmp_path / "clip.mp4"), str(tmp_path / "o.mp4"), cameras_out=str(tmp_path / "c.jsonl"), handle_signals=False)
+    assert runs[0] == (None, True) and runs[-1] == (None, True) and len(runs) >= 3, runs
+    assert all(r == (50, False) for r in runs[1:-1]), runs
+    assert s.frames == 100 and len(read_jsonl(tmp_path / "c.jsonl")) == 100
+    assert abs(s.pitch["length"] - 110) <= 1.0 and abs(s.pitch["width"] - 64) <= 1.0 and s.pitch["source"] == "estimated", s.pitch_text
+    got = score(read_jsonl(tmp_path / "truth.jsonl"), read_jsonl(tmp_path / "c.jsonl"), (640, 360), pitch=PitchModel(110, 64), pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
+    assert got.coverage == 1.0 and got.median <= 1.0, (got.coverage, got.median)
+    with av.open(str(tmp_path / "o.mp4")) as c:
+        assert sum(1 for _ in c.decode(video=0)) == 100
+
+
+def test_stopped_while_deciding_a_long_clip_s_size_the_first_run_s_outputs_stand(tmp_path, monkeypatch):
+    # Ctrl-C during the decision runs (which write nothing): the Interrupted
+    # carries the first run's summary, whose outputs are whole
+    from arstream.pipeline import api
+    from arstream.pipeline.summary import Interrupted
+
+    generate(tmp_path, preset="wide", seed=4, frames=60, size=(640, 360), pitch=(110, 64))
+
+    def stopped(input, output, cameras_out, first, an, run):
+        assert output is None and cameras_out is None and run["max_frames"] == 30
+        raise Interrupted(signal.SIGINT, Summary(frames=30, seconds=first.seconds + 1.0))
+
+    monkeypatch.setattr(api, "_rescan", stopped)
+    monkeypatch.setattr(api, "DECISION_FRAMES", 30)
+    import arstream.pitch_size
+
+    monkeypatch.setattr(arstream.pitch_size, "needs_scan", lambda *a, **k: True)  # (asked whatever the first run's paint)
+    with pytest.raises(Interrupted) as exc:
+        arstream.process(str(tmp_path / "clip.mp4"), str(tmp_path / "o.mp4"), cameras_out=str(tmp_path / "c.jsonl"), handle_signals=False)
+    s = exc.value.summary
+    assert s.frames == 60 and s.interrupted == signal.SIGINT and s.output == str(tmp_path / "o.mp4")
+    assert len(read_jsonl(tmp_path / "c.jsonl")) == 60
+    with av.open(str(tmp_path / "o.mp4")) as c:
+        assert sum(1 for _ in c.decode(video=0)) == 60

@@ -269,7 +269,58 @@ def process(
 
     if not needs_scan(supports, min_frames=max(5, SCAN_MIN_FRAMES // JUDGE_EVERY), seen=seen):
         return first
-    return _rescan(input, output, cameras_out, first, an, run)
+    window = _decision_frames(max_frames)
+    if first.frames <= window:
+        return _rescan(input, output, cameras_out, first, an, run)
+    return _decided_on_opening(input, output, cameras_out, first, an, run, window)
+
+
+#: frames of a clip the size's decision runs track (:func:`_decided_on_opening`):
+#: the scan's (:data:`arstream.pipeline.pitch_scan.SCAN_MAX_FRAMES`)
+DECISION_FRAMES = None
+
+
+def _decision_frames(max_frames: int | None) -> int:
+    """The frames a run that only decides the pitch's size tracks: the scan's
+    (:data:`DECISION_FRAMES`, default the scan's ``SCAN_MAX_FRAMES``), at
+    most ``max_frames``."""
+    from arstream.pipeline.pitch_scan import SCAN_MAX_FRAMES
+
+    window = SCAN_MAX_FRAMES if DECISION_FRAMES is None else int(DECISION_FRAMES)
+    return window if max_frames is None else min(int(max_frames), window)
+
+
+def _decided_on_opening(input, output, cameras_out, first: Summary, an: Analysis, run: dict, window: int) -> Summary:
+    """A clip longer than the scan's window that needs its size found
+    (:func:`process`): every run that decides the size (the scan's, and
+    those at the sizes it leads to, :func:`_rescan`) tracks the clip's first
+    ``window`` frames and writes nothing; then one run tracks the whole clip
+    at the size decided and replaces the first run's outputs. The scan
+    judges those frames anyway, and the runs after it decide by the size
+    their views estimate (views of the clip's first seconds) and by their
+    median line support, so each would otherwise cost a whole match: the
+    decisions take at most a few times the window, and the clip is tracked
+    twice in full (the default's run, then the size's) rather than up to
+    seven times. Stopped by a signal or failing in the last run, the first
+    run's outputs stay, as when a later run of :func:`_rescan` is."""
+    from geometry.pitch import PitchModel
+
+    try:
+        decided = _rescan(input, None, None, first, an, dict(run, max_frames=window))
+    except Interrupted as e:  # (the first run's outputs are the ones written)
+        if e.summary is not first:
+            first.seconds, first.cpu_seconds = e.summary.seconds, e.summary.cpu_seconds
+        first.interrupted = e.signum
+        raise Interrupted(e.signum, first) from None
+    if decided is not first:  # (the decision runs' time, the first run's included)
+        first.seconds, first.cpu_seconds = decided.seconds, decided.cpu_seconds
+    size = decided.pitch or {}
+    if size.get("source") in (None, "default", "given"):
+        first.pitch, first.pitch_text = decided.pitch, decided.pitch_text
+        return first
+    last, _, _ = _run_beside(input, output, cameras_out, first, run, pitch=PitchModel(size["length"], size["width"]))
+    last.pitch, last.pitch_text = decided.pitch, decided.pitch_text
+    return last
 
 
 def _process_once(input, output, cameras_out, *, scene, lag, crf, preset, audio, progress, max_frames, handle_signals, overlap, analysis_width, pitch, pixel_aspect, threads, keep_b_frames, area=None, estimate_pitch: bool = False, watch_pitch: bool = False, seen_max_sd: float | None = None) -> tuple[Summary, list, Analysis, object]:
