@@ -26,7 +26,7 @@ from arstream.sink import read_jsonl
 from geometry.camera import Camera
 from geometry.pitch import PitchModel
 
-__all__ = ["Score", "FrameError", "frame_error", "distance_1280", "score", "score_files", "format_table"]
+__all__ = ["Score", "FrameError", "frame_error", "distance_1280", "record_pitches", "score", "score_files", "format_table"]
 
 THRESHOLDS = (5, 10, 20)
 
@@ -155,6 +155,30 @@ def _ground_under_centre(truth: Camera, pred: Camera, size) -> np.ndarray | None
     return p if np.all(np.isfinite(p)) else None
 
 
+def record_pitches(records: list[dict], name: str = "cameras.jsonl") -> dict[int, PitchModel]:
+    """``frame -> PitchModel`` of the records that carry the size their camera
+    was made at (a ``pitch`` entry with ``length`` and ``width`` in metres, as
+    ``arstream register --json``, ``process`` and ``stream`` write; docs/formats.md).
+
+    (:func:`arstream.evaluate_video.evaluate_video` checks the records' frames first.)
+
+    Raises
+    ------
+    InputError
+        A ``pitch`` entry that is not an object with a legal length and width.
+    """
+    out: dict[int, PitchModel] = {}
+    for r in records:
+        p = r.get("pitch") if isinstance(r, dict) else None
+        if p is None:
+            continue
+        try:
+            out[r["frame"]] = PitchModel(float(p["length"]), float(p["width"]))
+        except (TypeError, KeyError, ValueError) as exc:
+            raise InputError(f"{name}: frame {r.get('frame')}: a pitch entry needs a length and a width in metres ({exc})") from None
+    return out
+
+
 def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: PitchModel | None = None, spacing: float = 0.25, pred_pitch: PitchModel | None = None) -> Score:
     """Score predicted camera records against truth records (matched by ``frame``).
 
@@ -169,20 +193,32 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
         (a size given or estimated otherwise): each marking is then scored
         where each camera draws its own pitch's version of it
         (:func:`arstream.pitch_size.corresponding_samples`), as a viewer sees
-        the drawn markings against the painted ones
+        the drawn markings against the painted ones. None: each record's own
+        ``pitch`` entry where it has one (:func:`record_pitches`; ``arstream
+        process`` writes it), else ``pitch``
     """
     pitch = pitch or PitchModel()
-    pts, pred_pts = pitch.sample_points(spacing), None
-    if pred_pitch is not None and (pred_pitch.length, pred_pitch.width) != (pitch.length, pitch.width):
-        from arstream.pitch_size import corresponding_samples
+    pts = pitch.sample_points(spacing)
+    samples: dict = {}
 
-        _, pred_pts = corresponding_samples(pitch, pred_pitch, spacing)
+    def pred_points(made_at: PitchModel | None):
+        """The samples where a camera made at ``made_at`` draws the painted ones (None: the same)."""
+        if made_at is None or (made_at.length, made_at.width) == (pitch.length, pitch.width):
+            return None
+        key = (made_at.length, made_at.width)
+        if key not in samples:
+            from arstream.pitch_size import corresponding_samples
+
+            samples[key] = corresponding_samples(pitch, made_at, spacing)[1]
+        return samples[key]
+
     sym = pitch.symmetries
     by_frame = {}
     for r in pred:
         if "frame" not in r:
             raise InputError("prediction record without a 'frame' key")
         by_frame[int(r["frame"])] = r
+    own = {} if pred_pitch is not None else record_pitches(pred)
     means, worsts, focal = [], [], []
     covered = pitch_frames = false_est = no_pitch = 0
     centre_err: dict[int, np.ndarray] = {}
@@ -200,7 +236,7 @@ def score(truth: list[dict], pred: list[dict], size: tuple[int, int], pitch: Pit
             worsts.append(np.inf)
             continue
         covered += 1
-        fe = frame_error(tc, pc, size, pts, sym, pred_pts)
+        fe = frame_error(tc, pc, size, pts, sym, pred_points(own.get(i, pred_pitch)))
         if fe is None:
             worsts.append(np.inf)
             continue

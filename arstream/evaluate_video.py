@@ -44,6 +44,7 @@ import cv2
 import numpy as np
 
 from arstream.errors import InputError
+from arstream.evaluate import record_pitches
 from arstream.sink import read_jsonl
 from arstream.support import MIN_POINTS, frame_mask, jitter_proxy, line_support, marking_points
 from geometry.camera import Camera
@@ -159,30 +160,6 @@ def cameras_by_frame(records: list[dict], name: str = "cameras.jsonl") -> dict[i
             except ValueError as exc:
                 raise InputError(f"{name}: frame {i}: {exc}") from None
         out[i] = (status, cam)
-    return out
-
-
-def record_pitches(records: list[dict], name: str = "cameras.jsonl") -> dict[int, PitchModel]:
-    """``frame -> PitchModel`` of the records that carry the size their camera
-    was made at (a ``pitch`` entry with ``length`` and ``width`` in metres, as
-    ``arstream register --json`` writes; docs/formats.md).
-
-    The records' frames are :func:`cameras_by_frame`'s (checked first).
-
-    Raises
-    ------
-    InputError
-        A ``pitch`` entry that is not an object with a legal length and width.
-    """
-    out: dict[int, PitchModel] = {}
-    for r in records:
-        p = r.get("pitch") if isinstance(r, dict) else None
-        if p is None:
-            continue
-        try:
-            out[r["frame"]] = PitchModel(float(p["length"]), float(p["width"]))
-        except (TypeError, KeyError, ValueError) as exc:
-            raise InputError(f"{name}: frame {r.get('frame')}: a pitch entry needs a length and a width in metres ({exc})") from None
     return out
 
 

@@ -1016,3 +1016,34 @@ def test_stopped_while_deciding_a_long_clip_s_size_the_first_run_s_outputs_stand
     assert len(read_jsonl(tmp_path / "c.jsonl")) == 60
     with av.open(str(tmp_path / "o.mp4")) as c:
         assert sum(1 for _ in c.decode(video=0)) == 60
+
+
+def test_cameras_jsonl_says_the_size_each_camera_was_made_at(tmp_path):
+    # each record with a camera carries the pitch's size it was solved at, so
+    # that eval --video judges a run at a size it found (or was given) on that
+    # size's markings without --pitch; a lost record carries none
+    from arstream.evaluate_video import evaluate_video
+    from geometry.pitch import PitchModel
+
+    generate(tmp_path, preset="wide", seed=4, frames=12, size=(640, 360), pitch=(110, 64))
+    for given, want in [((110, 64), (110.0, 64.0)), (None, (105.0, 68.0))]:
+        cams = tmp_path / f"{given}.jsonl"
+        arstream.process(str(tmp_path / "clip.mp4"), cameras_out=str(cams), pitch=given, handle_signals=False)
+        recs = read_jsonl(cams)
+        assert all(r["pitch"] == {"length": want[0], "width": want[1]} for r in recs if r["K"] is not None), recs[0]
+        assert all("pitch" not in r for r in recs if r["K"] is None)
+    recs = read_jsonl(tmp_path / "(110, 64).jsonl")
+    own = evaluate_video(str(tmp_path / "clip.mp4"), recs)
+    told = evaluate_video(str(tmp_path / "clip.mp4"), recs, pitch=PitchModel(110, 64))
+    wrong = evaluate_video(str(tmp_path / "clip.mp4"), recs, pitch=PitchModel(105, 68))
+    assert own.support_median == told.support_median and own.support_median >= 0.95
+    assert wrong.support_median < own.support_median - 0.05, (wrong.support_median, own.support_median)
+    # eval --truth as well: the 105 x 68 run's cameras on the 110 x 64 m clip are
+    # judged where they draw their own pitch's markings, not as if made at 110 x 64
+    from arstream.evaluate import score
+
+    truth, recs = read_jsonl(tmp_path / "truth.jsonl"), read_jsonl(tmp_path / "None.jsonl")
+    own = score(truth, recs, (640, 360), pitch=PitchModel(110, 64))
+    told = score(truth, recs, (640, 360), pitch=PitchModel(110, 64), pred_pitch=PitchModel(105, 68))
+    same = score(truth, recs, (640, 360), pitch=PitchModel(110, 64), pred_pitch=PitchModel(110, 64))
+    assert own.median == told.median and abs(own.median - same.median) > 0.5, (own.median, told.median, same.median)

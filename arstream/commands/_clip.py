@@ -127,7 +127,7 @@ def report(summary, args, *, verb: str, missing: Callable[[str], str]) -> int:
     if not args.json and summary.pitch_text and (pitch.get("source") in ("estimated", "scanned") or "scan" in pitch or "fits_poorly" in pitch):
         print(summary.pitch_text)
         if pitch.get("source") != "default":
-            print(f"(judge these cameras at this size: arstream eval --pitch {pitch['length']:.1f}x{pitch['width']:.1f})")
+            print(f"(judge these cameras at this size: arstream eval --pitch {pitch['length']:.1f}x{pitch['width']:.1f}; eval --video reads it from the cameras' records)")
     for stage in summary.missing:
         warn(f"no {stage} stage in this build{missing(stage)}")
     if summary.cameras_in is None and summary.frames > 0 and summary.tracked == 0 and "track" not in summary.missing:

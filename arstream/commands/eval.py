@@ -64,7 +64,7 @@ def register(subparsers) -> None:
         type=_pitch,
         default=None,
         metavar="LxW",
-        help="the pitch size in metres the cameras were made at (what arstream process printed). With --video the markings drawn and judged (default: a record's own \"pitch\" entry, as register --json writes, else 105x68); with --truth, when not the clip's own size, each camera is judged on its own pitch's markings (default: the clip's)",
+        help="the pitch size in metres the cameras were made at (what arstream process printed). With --video the markings drawn and judged (default: a record's own \"pitch\" entry, as register --json writes, else 105x68); with --truth, when not the clip's own size, each camera is judged on its own pitch's markings (default: a record's own \"pitch\" entry, as process writes, else the clip's)",
     )
     p.add_argument("--pixel-aspect", type=_positive(float), default=None, metavar="A", help="with --video: a pixel's width over its height, for overlays and 1280-wide pixels (default: the cameras' K[1][1]/K[0][0])")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

@@ -56,6 +56,8 @@ class Item:
     analysis : the frame at the analysis size (BGR), made once for detection and tracking
     thumbnail : the frame's :func:`arstream.imaging.grey_thumbnail` (the tracker's
         shot-cut test), made with ``analysis`` from the decoder's luma, or None
+    pitch : the ``geometry.pitch.PitchModel`` the frame's camera was solved at
+        (set with ``estimate`` by the tracker's stage), or None
     """
 
     frame: Frame
@@ -69,6 +71,7 @@ class Item:
     owned: bool = False
     analysis: np.ndarray | None = None
     thumbnail: np.ndarray | None = None
+    pitch: object | None = None
 
     @property
     def index(self) -> int:

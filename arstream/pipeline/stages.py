@@ -404,6 +404,7 @@ class TrackStage(Stage):
                 if share is not None and share < MIN_DRAWN_SUPPORT:
                     est = CameraEstimate.lost(est.frame, est.pts, reason=f"unsupported camera (line support {share:.2f} on the whole frame)")
             it.estimate = est
+            it.pitch = self.tracker.pitch
             if est.frame % JUDGE_EVERY == 0:
                 self.supports.append(None if est.camera is None else line_support(est.camera, frame_mask(it.frame) if mask is None else mask, marking_points(self.tracker.pitch)).share)
             out.append(it)
@@ -636,7 +637,11 @@ class RenderStage(Stage):
         self.renderer.release()
 
 class CamerasOutStage(Stage):
-    """Write each frame's estimate to ``cameras.jsonl`` (complete lines, flushed per frame)."""
+    """Write each frame's estimate to ``cameras.jsonl`` (complete lines, flushed
+    per frame). A record with a camera carries the pitch's size it was solved
+    at (``"pitch": {"length", "width"}`` in metres, :attr:`Item.pitch`; given,
+    105 x 68, or the size the run found), so that ``arstream eval --video``
+    judges it on its own pitch's markings without being told the size."""
 
     name = "cameras"
 
@@ -645,7 +650,10 @@ class CamerasOutStage(Stage):
         self.path = self.writer.path
 
     def process(self, item: Item) -> list[Item]:
-        self.writer.write(item.estimate.to_record())
+        rec = item.estimate.to_record()
+        if rec["K"] is not None and item.pitch is not None:
+            rec["pitch"] = {"length": round(float(item.pitch.length), 3), "width": round(float(item.pitch.width), 3)}
+        self.writer.write(rec)
         return [item]
 
     def close(self) -> None:
