@@ -721,11 +721,13 @@ def render_clip(
             make_key = lambda: _overlapped(MatteStage(key), overlap)  # noqa: E731
         else:
             make_key = lambda: None  # noqa: E731
+        cameras_box: list = []
         stages = _build(
             [
                 make_key,
-                lambda: CamerasInStage(cameras),
-                lambda: RenderStage(W, H, scene),
+                lambda: _boxed(cameras_box, CamerasInStage(cameras)),
+                # (a scene without a [pitch] table stands on the size the cameras were made at)
+                lambda: RenderStage(W, H, scene, pitch=cameras_box[0].pitch),
                 lambda: EncodeStage(output, src, crf=crf, preset=preset, audio=audio, keep_b_frames=keep_b_frames),
             ],
             src,

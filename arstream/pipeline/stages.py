@@ -497,6 +497,9 @@ class CamerasInStage(Stage):
 
     The file is read line by line alongside the video; frames without a record
     are "lost". Used by :func:`render_clip` (``arstream render``).
+    :attr:`pitch`: the size its first record with a ``pitch`` entry says its
+    camera was made at (docs/formats.md; ``arstream process`` writes it), the
+    size a scene without a ``[pitch]`` table is drawn on; None without one.
     """
 
     name = "cameras"
@@ -511,6 +514,17 @@ class CamerasInStage(Stage):
         if not os.path.exists(self.path):
             raise InputError(f"cameras file not found: {self.path}")
         self.f = open(self.path, encoding="utf-8")
+        self.line = 0
+        self.pitch = None
+        while True:  # (a first pass to the first record that says its size)
+            rec = self._read()
+            if rec is None or isinstance(rec, dict) and rec.get("pitch") is not None:
+                break
+        if rec is not None:
+            from arstream.evaluate import record_pitches
+
+            self.pitch = next(iter(record_pitches([rec], self.path).values()), None)
+        self.f.seek(0)
         self.line = 0
         self.next_rec = self._read()
 
