@@ -22,6 +22,8 @@ Entities (timelines ``frame`` (sequence) and ``time`` (the frame's pts)):
   ``rr.Pinhole`` (K, image size, OpenCV axes RDF); cleared on lost frames
 - ``camera/focal``, ``camera/pan``, ``camera/tilt`` (degrees), ``camera/confidence``
 - ``timing/<stage>``  milliseconds per frame of each pipeline stage
+- ``log``             what the run tells the operator (``rr.TextLog``, e.g. the
+  pitch's size in doubt: :meth:`RerunLogger.note`)
 
 Sinks: ``spawn`` a viewer, ``save`` an .rrd, ``connect`` to a viewer's gRPC
 URL, or ``serve`` gRPC (bound to 127.0.0.1 unless told otherwise). A viewer
@@ -361,6 +363,13 @@ class RerunLogger:
                 if len(run) >= 2:
                     out.append(uv[run])
         return out
+
+    def note(self, text: str, level: str = "WARN") -> None:
+        """Log ``text`` for the operator at ``log`` (``rr.TextLog`` at ``level``,
+        on the timeline of the last frame logged)."""
+        if not self.enabled:
+            return
+        self.rec.log("log", self.rr.TextLog(text, level=level))
 
     def log_output(self, item) -> None:
         if not self.enabled:

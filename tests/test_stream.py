@@ -223,12 +223,15 @@ def test_a_live_run_says_when_the_paint_backs_the_default_size_poorly(tmp_path):
         if not (tmp_path / str(drawn_at)).exists():
             generate(tmp_path / str(drawn_at), preset="wide", seed=4, frames=130, size=(640, 360), pitch=drawn_at)
         msgs = []
-        s = arstream.stream(str(tmp_path / str(drawn_at) / "clip.mp4"), cameras_out=d.with_suffix(".jsonl"), handle_signals=False, warn=msgs.append, pitch=given)
+        s = arstream.stream(str(tmp_path / str(drawn_at) / "clip.mp4"), cameras_out=d.with_suffix(".jsonl"), handle_signals=False, warn=msgs.append, pitch=given, rerun=("save", d.with_suffix(".rrd")))
         said[name] = (msgs, s)
     msgs, s = said["off"]
     assert len(msgs) == 1 and "fit 105 x 68 m poorly" in msgs[0] and "--pitch" in msgs[0], msgs
     assert s.pitch["fits_poorly"] < SCAN_BELOW and s.pitch["source"] == "default"
     assert msgs[0] in s.pitch_text
+    # (and in the operator's rerun viewer, as a warning in its text log)
+    assert "TextLog:text" in entities(str(tmp_path / "off.rrd")).get("/log", set())
+    assert "/log" not in entities(str(tmp_path / "default.rrd"))
     for name in ("given", "default"):
         msgs, s = said[name]
         assert msgs == [] and "fits_poorly" not in s.pitch and "poorly" not in (s.pitch_text or ""), (name, msgs, s.pitch)

@@ -813,6 +813,12 @@ def stream(
         track_box: list = []
         watch_box: list = []
 
+        def tell(text: str) -> None:
+            """A warning for the operator: on stderr, and in the rerun viewer."""
+            warn(text)
+            if logger_box:
+                logger_box[0].note(text)
+
         def make_logger():
             if mode is None:
                 return None
@@ -827,7 +833,7 @@ def stream(
                 lambda: DetectStage(W, H, analysis=an, hints=_hints_of(track_box)),
                 lambda: _boxed(track_box, TrackStage(W, H, fps=src.fps, lag=0, enabled=_has("arstream.detect"), analysis=an, pitch=pitch)),
                 # (no size given: say so when the paint backs the default poorly, as process would scan)
-                lambda: _boxed(watch_box, SizeWatchStage(track_box[0], warn, window=SCAN_MAX_FRAMES // JUDGE_EVERY)) if pitch is None and track_box[0].available else None,
+                lambda: _boxed(watch_box, SizeWatchStage(track_box[0], tell, window=SCAN_MAX_FRAMES // JUDGE_EVERY)) if pitch is None and track_box[0].available else None,
                 make_logger,
                 lambda: RenderStage(W, H, scene, pitch=_run_pitch(track_box)),
                 (lambda: logger_box[0].output_stage) if mode is not None else (lambda: None),
