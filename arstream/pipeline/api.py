@@ -224,7 +224,9 @@ def process(
         the clip is tracked again at other sizes and, when one fits better
         (:func:`arstream.pitch_size.choose_size`), run again from it with the
         size estimated; ``summary.pitch`` says what was done (its ``scan``
-        the sizes' line support). "auto": start from 105 x 68 and estimate
+        the sizes' line support). A clip longer than the scan's 750 frames
+        decides the size on them and is then tracked once more in full at
+        it (:func:`_decided_on_opening`). "auto": start from 105 x 68 and estimate
         the size from the clip's first views (:mod:`arstream.pitch_size`,
         experimental)
     pixel_aspect : a pixel's width over its height: the stream's sample aspect
