@@ -130,9 +130,10 @@ def _boxed(box: list, stage):
 
 
 def _run_pitch(box: list):
-    """The PitchModel the tracker of the TrackStage in ``box`` starts at (given,
-    a scan's size, or 105 x 68), or None without one: the size a scene
-    without a ``[pitch]`` table stands on (:class:`RenderStage`)."""
+    """The PitchModel the tracker of the TrackStage in ``box`` solves at now
+    (given, a scan's size, 105 x 68, or what ``"auto"`` estimated), or None
+    without one: the size a scene without a ``[pitch]`` table stands on
+    (:class:`RenderStage`, at its start) and the rerun viewer draws."""
     return getattr(getattr(box[0], "tracker", None), "pitch", None) if box else None
 
 
@@ -825,8 +826,7 @@ def stream(
             if mode is None:
                 return None
             # (the model is drawn at the size the tracker solves at: given, or estimated with "auto")
-            tracker = getattr(track_box[0], "tracker", None) if track_box else None
-            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an, pitch=(lambda: tracker.pitch) if tracker is not None else None)
+            lg = RerunLogger(mode, W, H, bind=bind, port=port, jpeg_quality=jpeg_quality, warn=warn, name=os.path.basename(src.path), analysis=an, pitch=lambda: _run_pitch(track_box))
             logger_box.append(lg)
             return lg.input_stage
 

@@ -470,13 +470,12 @@ class SizeWatchStage(Stage):
         return []
 
     def _judge(self) -> None:
-        from arstream.pitch_size import needs_scan
+        from arstream.pitch_size import _median, needs_scan
 
         self.done = True
         supports = self.track.supports[: self.window]
         if needs_scan(supports):
-            values = [v for v in supports if v is not None]
-            self.median, self.judged = float(np.median(values)), len(values)
+            self.median, self.judged = _median(supports, 1), sum(v is not None for v in supports)
             self.report(self.message())
 
     def message(self) -> str:
