@@ -14,9 +14,19 @@ The pseudo-truth moves with the code under test; the reference frames the
 copy holds are also judged against the reference cameras themselves
 (:func:`reference_distances`, the issue's "within 5 px"), which do not.
 
+Two variants make *another real clip* rather than another broadcast of the
+same one, with cameras that follow from the original's exactly
+(``WxHxCRF:mirror``, ``:reverse``, ``:mirror+reverse``): flipped left to
+right, the view of the other half of the pitch, which its markings map onto
+themselves (the reference and full-size cameras mirrored:
+``real_graphics.mirrored``); played backwards, a pan the other way that
+opens on the view the clip ends on. The tracker meets them as it would a
+clip it has never seen: the check of generality the shared material
+allows (bench/README.md, "Stop 76").
+
 Usage::
 
-    python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF[:LOOK] ...]
+    python bench/real_perturbed.py [--clips NAME ...] [--variants WxHxCRF[:LOOK][+mirror][+reverse] ...]
                                    [--frames N] [--pitch NAME=LxW ...] [--own-size] [--keep DIR]
 
 Distances are means over the markings in the full-size camera's view, in
@@ -50,13 +60,19 @@ from geometry.camera import Camera  # noqa: E402
 from geometry.pitch import PitchModel  # noqa: E402
 from arstream.evaluate import distance_1280  # noqa: E402
 from real_footage import SHARED, _fmt, pitch_args, references  # noqa: E402
-from real_graphics import dim, soft  # noqa: E402
+from real_graphics import dim, mirrored, soft  # noqa: E402
 
 #: the frame rates MPEG-2 can code
 MPEG2_RATES = (Fraction(24000, 1001), Fraction(24), Fraction(25), Fraction(30000, 1001), Fraction(30), Fraction(50), Fraction(60000, 1001), Fraction(60))
 VARIANTS = ["1280x720x28", "1024x576x20", "854x480x12", "854x480x20", "848x478x26"]
 #: looks of the picture a variant can add (``WxHxCRF:LOOK``): an evening match, a soft picture
 LOOKS = {"dim": dim, "soft-1.2": soft}
+#: changes of the clip's geometry or time a variant can add (``WxHxCRF:mirror``,
+#: ``:reverse``, ``:mirror+reverse``): another real clip whose cameras follow from the
+#: original's exactly. Flipped left to right, the view of the other half (or end) of a
+#: pitch its markings map onto themselves (``real_graphics.mirrored``); played
+#: backwards, a pan the other way that opens on the view the clip ends on.
+ORDERS = ("mirror", "reverse")
 
 
 def _area_weights(n_in: int, n_out: int) -> tuple[np.ndarray, np.ndarray, int]:
@@ -140,7 +156,7 @@ def x264_options(crf: int) -> dict:
     return {"crf": str(crf), "preset": "fast", **({"x264-params": params} if params else {})}
 
 
-def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264", look=None) -> Path:
+def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: int | None = None, start: int = 0, *, codec: str = "libx264", look=None, mirror: bool = False, reverse: bool = False) -> Path:
     """``frames`` frames of ``src`` (all with None) from frame ``start`` on,
     scaled to ``size`` (area averaging down, bilinear up: :func:`scale_plane`) and encoded with
     ``codec`` at ``quality`` (libx264's crf, or with ``"mpeg2video"``, the
@@ -148,7 +164,11 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
     the same match. ``look``: a function of a BGR frame applied to each
     decoded frame first (``real_graphics.dim``, ``real_graphics.soft``: an
     evening match, a soft picture); its colour conversions are FFmpeg's, so
-    such a copy is not the same bytes on every processor. Returns ``dst``.
+    such a copy is not the same bytes on every processor. ``mirror``: every
+    frame flipped left to right (its planes' columns reversed: exact);
+    ``reverse``: the clip played backwards, ``start`` and ``frames`` counted
+    on the reversed clip (its frames are held in memory: about 1.4 MB each
+    at 720p). Returns ``dst``.
 
     The same bytes on every run: the scaling is exact integer arithmetic on
     the decoded planes, the same on every processor (FFmpeg's swscale,
@@ -185,17 +205,27 @@ def reencode(src: Path, dst: Path, size: tuple[int, int], quality: int, frames: 
         st = out.add_stream(codec, rate=rate)
         st.width, st.height, st.pix_fmt = w, h, "yuv420p"
         st.options = options
-        for k, frame in enumerate(inp.decode(vs)):
-            if k < start:
-                continue
-            if frames is not None and k >= start + frames:
-                break
-            if frame.format.name not in ("yuv420p", "yuvj420p"):
-                raise ValueError(f"{src}: frames are {frame.format.name}, not 4:2:0 8-bit")
-            if look is not None:
-                frame = av.VideoFrame.from_ndarray(look(frame.to_ndarray(format="bgr24")), format="bgr24").reformat(format="yuv420p")
-            planes = i420_planes(frame.to_ndarray(), frame.width, frame.height)
-            scaled = [scale_plane(p, (w, h) if i == 0 else (w // 2, h // 2)) for i, p in enumerate(planes)]
+
+        def copies():
+            """The copy's frames: (Y, U, V) planes scaled (and flipped), in the source's order."""
+            for k, frame in enumerate(inp.decode(vs)):
+                if not reverse and k < start:
+                    continue
+                if not reverse and frames is not None and k >= start + frames:
+                    break
+                if frame.format.name not in ("yuv420p", "yuvj420p"):
+                    raise ValueError(f"{src}: frames are {frame.format.name}, not 4:2:0 8-bit")
+                if look is not None:
+                    frame = av.VideoFrame.from_ndarray(look(frame.to_ndarray(format="bgr24")), format="bgr24").reformat(format="yuv420p")
+                planes = i420_planes(frame.to_ndarray(), frame.width, frame.height)
+                scaled = [scale_plane(p, (w, h) if i == 0 else (w // 2, h // 2)) for i, p in enumerate(planes)]
+                yield [q[:, ::-1] for q in scaled] if mirror else scaled
+
+        order = copies()
+        if reverse:
+            held = list(order)[::-1]
+            order = held[start : None if frames is None else start + frames]
+        for scaled in order:
             g = av.VideoFrame.from_ndarray(np.concatenate([q.ravel() for q in scaled]).reshape(-1, w), format="yuv420p")
             for packet in st.encode(g):
                 out.mux(packet)
@@ -214,19 +244,33 @@ def _at_1280(cam: Camera, size: tuple[int, int]) -> Camera:
     return Camera(K=np.diag([1280.0 / size[0], 720.0 / size[1], 1.0]) @ cam.K, R=cam.R, t=cam.t, dist=cam.dist)
 
 
-def reference_distances(name: str, got: list[Camera | None], size: tuple[int, int], start: int = 0) -> np.ndarray:
+def copy_frame(k: int, start: int = 0, *, reverse: bool = False, total: int | None = None) -> int:
+    """The frame of a copy (:func:`reencode` from frame ``start``) that shows
+    frame ``k`` of the source; with ``reverse``, of a source of ``total`` frames."""
+    return (total - 1 - k if reverse else k) - start
+
+
+def as_copy(cam: Camera | None, *, mirror: bool = False) -> Camera | None:
+    """A camera of the 1280 x 720 source as the same frame's camera in a copy
+    (at 1280 x 720): flipped with ``mirror`` (:func:`real_graphics.mirrored`)."""
+    return mirrored(cam, 1280) if mirror and cam is not None else cam
+
+
+def reference_distances(name: str, got: list[Camera | None], size: tuple[int, int], start: int = 0, *, mirror: bool = False, reverse: bool = False, total: int | None = None) -> np.ndarray:
     """(R,) distance (px @1280) of each reference camera of the shared clip
     ``name`` (tests/data/real_reference, made independently of the product)
     to ``got``'s camera of the same frame (cameras of a ``size`` copy of the
-    clip from frame ``start``): inf where the copy has none. Only the
+    clip from frame ``start``, flipped and played backwards as
+    :func:`reencode` made it; ``total``: the source's frame count, for
+    ``reverse``): inf where the copy has none. Only the
     reference frames the copy holds count. Both cameras project the
     reference's markings, whatever size ``got`` was made at (as
     ``bench/real_footage.py`` and ``tests/test_real_clips.py`` judge a run)."""
     out = []
     for k, (ref, pitch) in sorted(references(name).items()):
-        j = k - start
+        j = copy_frame(k, start, reverse=reverse, total=total)
         if 0 <= j < len(got):
-            out.append(np.inf if got[j] is None else distance_1280(ref, _at_1280(got[j], size), (1280, 720), pitch))
+            out.append(np.inf if got[j] is None else distance_1280(as_copy(ref, mirror=mirror), _at_1280(got[j], size), (1280, 720), pitch))
     return np.array(out)
 
 
@@ -268,28 +312,37 @@ def run(clips, variants, starts, frames, pitches, keep: Path | None, own_size: b
             truth = _cameras(records)
             rows.append(dict(clip=name, variant="full size (the pseudo-truth)", start=0, seconds=time.perf_counter() - t0, score=evaluate_video(src, records, pitch=used), refs=reference_distances(name, truth, (1280, 720)), pitch=used))
             for v in variants:
-                shape, _, look = v.partition(":")
+                shape, _, extra = v.partition(":")
                 w, h, crf = (int(x) for x in shape.split("x"))
+                changes = [x for x in extra.split("+") if x]
+                unknown = [x for x in changes if x not in LOOKS and x not in ORDERS]
+                if unknown or sum(x in LOOKS for x in changes) > 1:
+                    raise SystemExit(f"variant {v!r}: after ':' one look of {sorted(LOOKS)} and any of {list(ORDERS)}, joined by '+'")
+                look = next((x for x in changes if x in LOOKS), "")
+                mirror, reverse = "mirror" in changes, "reverse" in changes
+                # the source's cameras as the copy's frames (flipped, in its order)
+                seen = [as_copy(truth[len(truth) - 1 - j] if reverse else truth[j], mirror=mirror) for j in range(len(truth))]
                 for start in starts:
                     if start >= len(truth) - 25:
                         continue
-                    stem = f"{name}_{w}x{h}_crf{crf}{'_' + look if look else ''}_from{start}"
-                    clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start, look=LOOKS[look] if look else None)
+                    stem = f"{name}_{w}x{h}_crf{crf}{'_' + '_'.join(changes) if changes else ''}_from{start}"
+                    clip = reencode(src, work / f"{stem}.mp4", (w, h), crf, frames, start, look=LOOKS[look] if look else None, mirror=mirror, reverse=reverse)
                     out = work / f"{stem}.jsonl"
                     t0 = time.perf_counter()
                     sc = process(clip, cameras_out=out, handle_signals=False, pitch=None if own_size else (used.length, used.width))
                     dt = time.perf_counter() - t0
                     at = _size(sc) if own_size else used
                     recs = [json.loads(x) for x in out.read_text().splitlines()]
-                    d = distances(truth[start:], _cameras(recs), (w, h), used)
-                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}" + (f", {look}" if look else ""), start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=at), dist=d[np.isfinite(d)], frames=len(d), refs=reference_distances(name, _cameras(recs), (w, h), start), pitch=at))
+                    d = distances(seen[start:], _cameras(recs), (w, h), used)
+                    refs = reference_distances(name, _cameras(recs), (w, h), start, mirror=mirror, reverse=reverse, total=len(truth))
+                    rows.append(dict(clip=name, variant=f"{w} x {h}, crf {crf}" + "".join(f", {x}" for x in changes), start=start, seconds=dt, score=evaluate_video(clip, recs, pitch=at), dist=d[np.isfinite(d)], frames=len(d), refs=refs, pitch=at))
     return rows
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["israel_league_wide"])
-    ap.add_argument("--variants", nargs="+", default=VARIANTS, help="WxHxCRF, or WxHxCRF:LOOK with a look of the picture (dim, soft-1.2)")
+    ap.add_argument("--variants", nargs="+", default=VARIANTS, help="WxHxCRF, or WxHxCRF:X with a look of the picture (dim, soft-1.2) and/or mirror, reverse, joined by '+' (e.g. 1280x720x18:mirror+reverse)")
     ap.add_argument("--starts", nargs="+", type=int, default=[0, 60, 120], help="each variant from these frames of the clip on (other starting conditions)")
     ap.add_argument("--frames", type=int, default=None, help="at most N frames from each start")
     ap.add_argument("--pitch", action="append", default=[], help="NAME=LxW: the pitch size of a clip (given to every run of it)")

@@ -159,3 +159,74 @@ def test_reference_distances_judge_the_copys_reference_frames():
     c = got[150 - start]
     got[150 - start] = Camera(K=np.array([[1.0, 0.0, 4.0 * sx], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) @ c.K, R=c.R, t=c.t)
     assert reference_distances("israel_league_wide", got, size, start)[1] == pytest.approx(4.0, abs=1e-6)
+
+
+def _numbered_clip(path, n: int, size=(64, 48)):
+    """A lossless 4:2:0 clip of ``n`` frames, frame k's luma ramp offset by 10 k
+    (its order readable after decoding) and brighter on its left half."""
+    import av
+
+    w, h = size
+    with av.open(str(path), "w") as out:
+        st = out.add_stream("libx264", rate=25)
+        st.width, st.height, st.pix_fmt = w, h, "yuv420p"
+        st.options = {"qp": "0"}  # (lossless)
+        for k in range(n):
+            img = np.full((h, w, 3), 20 + 10 * k, np.uint8)
+            img[:, : w // 2] += 100
+            for packet in st.encode(av.VideoFrame.from_ndarray(img, format="bgr24").reformat(format="yuv420p")):
+                out.mux(packet)
+        for packet in st.encode():
+            out.mux(packet)
+    return path
+
+
+def _lumas(path) -> list[np.ndarray]:
+    import av
+
+    with av.open(str(path)) as c:
+        return [f.to_ndarray(format="gray").astype(int) for f in c.decode(video=0)]
+
+
+def test_reencode_mirrors_and_reverses_a_clip(tmp_path):
+    # mirror: each frame's columns reversed (the bright half on the right);
+    # reverse: the clip played backwards, start and frames counted on the
+    # reversed clip (frames 4, 3, 2 of a 6-frame clip from its frame 1)
+    src = _numbered_clip(tmp_path / "src.mp4", 6)
+    level = [int(np.median(y)) for y in _lumas(src)]
+    plain = _lumas(reencode(src, tmp_path / "plain.mp4", (64, 48), 0, 3, 1))
+    both = _lumas(reencode(src, tmp_path / "both.mp4", (64, 48), 0, 3, 1, mirror=True, reverse=True))
+    back = _lumas(reencode(src, tmp_path / "back.mp4", (64, 48), 0, None, 0, reverse=True))
+    assert len(plain) == len(both) == 3 and len(back) == 6
+    # (the copies at crf 0: lossless but for the colour conversion's rounding)
+    for got, k in zip(plain, (1, 2, 3)):
+        assert abs(np.median(got) - level[k]) <= 2 and got[:, :32].mean() > got[:, 32:].mean() + 50
+    for got, k in zip(both, (4, 3, 2)):
+        assert abs(np.median(got) - level[k]) <= 2 and got[:, 32:].mean() > got[:, :32].mean() + 50
+    assert [int(np.median(y)) for y in back] == pytest.approx(level[::-1], abs=2)
+
+
+def test_a_mirrored_and_reversed_copy_is_judged_against_its_own_reference_frames():
+    # a copy of the clip flipped and played backwards, from its frame 100:
+    # copy frame j shows source frame 403 - 100 - j, drawn by the mirrored
+    # reference camera; a copy holding exactly those cameras is 0 px off
+    # every reference frame it holds (the source's frames 0-303: 100-300)
+    from real_footage import references
+    from real_graphics import mirrored
+    from real_perturbed import as_copy, copy_frame, reference_distances
+
+    refs = references("israel_league_wide")
+    if not refs:
+        pytest.skip("no reference cameras")
+    total, start = 404, 100
+    assert copy_frame(300, start, reverse=True, total=total) == 3 and copy_frame(300, start) == 200
+    assert as_copy(None, mirror=True) is None and as_copy(refs[100][0]) is refs[100][0]
+    got = [None] * (total - start)
+    for k, (ref, _) in refs.items():
+        j = copy_frame(k, start, reverse=True, total=total)
+        if 0 <= j < len(got):
+            got[j] = mirrored(ref, 1280)
+    d = reference_distances("israel_league_wide", got, (1280, 720), start, mirror=True, reverse=True, total=total)
+    assert len(d) == 9 and np.all(d < 1e-6), d
+    # judged as an unmirrored copy, the same cameras are far off
+    assert np.all(reference_distances("israel_league_wide", got, (1280, 720), start, reverse=True, total=total) > 20)
