@@ -258,6 +258,29 @@ def test_no_frame_of_a_compressed_copy_is_drawn_below_half_support(tmp_path):
     assert score.drawn_below_0_5 == 0, score
 
 
+def test_a_walk_back_after_a_centre_move_does_not_alternate_cameras(tmp_path):
+    # another real clip: israel_league_wide flipped left to right (the view
+    # of the other half; bench/real_perturbed.py's ``:mirror``), its first
+    # 130 frames. After the whip pan the tripod centre moves 3.3 m (frame
+    # 104), and the camera found there is carried back over the held frames
+    # before it. The walk went on past frames whose own camera (about the
+    # old centre, 5-10 px away) their paint backed a little less than the
+    # walk's (by less than carry_gain), leaving them on it: the output
+    # alternated between the two. Such a frame now ends the walk
+    # (main at 852273f: second differences up to 38 px, the jitter proxy
+    # over frames 86-110 13.1 px; 2.48 px now, where the clip itself scores
+    # 2.44: the pan slowing after the whip. The whole mirrored clip 4.53 ->
+    # 2.15 px, the clip itself 2.06)
+    from real_perturbed import _cameras
+
+    clip = reencode(SHARED / "clips" / "israel_league_wide.mp4", tmp_path / "israel_mirror.mp4", (1280, 720), 18, 130, mirror=True)
+    out = tmp_path / "cameras.jsonl"
+    process(clip, cameras_out=out, pitch=(105.0, 68.0), handle_signals=False)
+    cams = _cameras([json.loads(line) for line in out.read_text().splitlines()])
+    assert len(cams) == 130 and all(c is not None for c in cams[86:111])
+    assert jitter_proxy(cams[86:111], (1280, 720)).rms <= 4.0
+
+
 def test_a_pillarboxed_clip_is_tracked_on_its_picture(tmp_path):
     # the artificial-turf clip's first 30 frames as a 4:3 picture in a 16:9
     # frame (black over the left and right 12.5 %, bench/real_bars.py): main
