@@ -281,7 +281,7 @@ class FrameViews:
         return self._views[reach]
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0, seeds=()) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -316,7 +316,10 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     of :data:`MORE_SPLITS_BELOW`, the lines' next splits into the two
     directions (:data:`MORE_SPLITS`, a still) are tried too, and their best
     kept when its line support is at least :data:`PAINT_CHECK` and its
-    :func:`paint_score` is higher. Returns (refinement, its support), or (None, None) when
+    :func:`paint_score` is higher. ``seeds``: cameras from elsewhere judged
+    with the hypotheses, refined and scored alike (the tracker's: the
+    detector's camera of the frame where it fell short of
+    :data:`INIT_ACCEPT`). Returns (refinement, its support), or (None, None) when
     no hypothesis was found.
     """
     W, H = size
@@ -325,7 +328,7 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     found = view.lines[:10]
     seg_lines, seg_ends = [dl.line for dl in found], [dl.endpoints for dl in found]
     hy = cameras_from_line_pairs(seg_lines, seg_ends, size, principal_point, near, pitch, keep=keep, splits=SPLITS) if len(found) >= 4 else None
-    cands = (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
+    cands = list(seeds) + (hy.cameras if hy is not None else []) + circle_view_cameras(view, size, principal_point=principal_point, pitch=pitch, circles=circles, lines=lines, refine=refine_family)
     n_lines = len(cands)
     if penalty_arcs:
         cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)

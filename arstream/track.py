@@ -665,6 +665,12 @@ class Tracker:
                 swept_rates = self._kf.x[1::2, 0].copy()
                 self._kf = None  # re-anchored: restart the filter from this measurement
         rival = None  # the paint initialiser's (refinement, support), when it beat the detector's camera
+        # the detector's camera where it falls short of init_accept: judged on
+        # the paint with the paint initialiser's hypotheses, not dropped (a
+        # real frame's paint leaves the detector's lines short of the markings:
+        # the circle's right camera at 0.59 lost to a hypothesis on lines of
+        # other sports, docs/real-footage.md point 2)
+        weak = None
         if meas is None:
             r = initialise_camera(det, lidx, self.size, self.model, principal_point=self.pp, pitch=self.pitch, centre=None, estimate_k1=False, prior=pred_cam)
             if r is not None and r.confidence >= self.cfg.init_accept and image is not None and index - self._paint_at >= self.cfg.rival_every:
@@ -672,6 +678,8 @@ class Tracker:
                 rival = self._paint_rival(index, r, view, det)
                 if rival is not None:
                     r = None  # (taken as the paint initialiser's camera below)
+            if r is not None and r.confidence < self.cfg.init_accept:
+                weak = r.camera
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
@@ -703,7 +711,7 @@ class Tracker:
             # lines of the white paint, scored against the frame (costly: not every frame)
             self._paint_at = index
             view = view or self._paint_view(index, image, det)
-            r, sup = rival or initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines)
+            r, sup = rival or initialise_from_paint(view, self.size, principal_point=self.pp, pitch=self.pitch, circles=det.ellipses, lines=det.lines, seeds=() if weak is None else (weak,))
             if r is not None and sup >= self.cfg.paint_accept:
                 meas, source = r, "paint"
                 self.stats["paint_inits"] += 1

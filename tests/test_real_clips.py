@@ -281,6 +281,29 @@ def test_a_walk_back_after_a_centre_move_does_not_alternate_cameras(tmp_path):
     assert jitter_proxy(cams[86:111], (1280, 720)).rms <= 4.0
 
 
+def test_an_opening_whose_circle_camera_is_weak_is_not_laid_on_other_sports_lines(tmp_path):
+    # another real clip: the artificial-turf clip flipped left to right, its
+    # first 60 frames, at the size its own scan estimates (100.124 x 65.997
+    # m). The detector's camera of frame 0 (the centre circle with the
+    # halfway line, right) has a confidence of 0.594, under init_accept; the
+    # paint initialiser's own hypotheses then gave a camera 3.9 m high that
+    # lays the markings on yellow and orange lines of other sports (line
+    # support 0.76 at the analysis size), and the tracker followed it: frames
+    # 1-14 thousands of pixels off, 15-53 20-28 px, all drawn. The detector's
+    # weak camera is now judged on the paint with the paint's hypotheses
+    # (0.82, the right one). Its reference frames 0, 25 and 50 within 5 px
+    # (main at 9466ca7: none; frame 0 lost, 25 5 625 px off, 50 22.8 px).
+    from real_perturbed import _cameras, reference_distances
+
+    clip = reencode(SHARED / "clips" / "artificial_turf_multisport.mp4", tmp_path / "turf_mirror.mp4", (1280, 720), 18, 60, mirror=True)
+    out = tmp_path / "cameras.jsonl"
+    process(clip, cameras_out=out, pitch=(100.124, 65.997), handle_signals=False)
+    cams = _cameras([json.loads(line) for line in out.read_text().splitlines()])
+    d = reference_distances("artificial_turf_multisport", cams, (1280, 720), mirror=True)
+    assert len(cams) == 60 and len(d) == 3
+    assert np.all(d <= 5.0), d
+
+
 def test_a_pillarboxed_clip_is_tracked_on_its_picture(tmp_path):
     # the artificial-turf clip's first 30 frames as a 4:3 picture in a 16:9
     # frame (black over the left and right 12.5 %, bench/real_bars.py): main
