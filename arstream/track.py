@@ -678,8 +678,6 @@ class Tracker:
                 rival = self._paint_rival(index, r, view, det)
                 if rival is not None:
                     r = None  # (taken as the paint initialiser's camera below)
-            if r is not None and r.confidence < self.cfg.init_accept:
-                weak = r.camera
             if r is not None and r.confidence >= self.cfg.init_accept:
                 meas = r
                 source = "init"
@@ -706,6 +704,8 @@ class Tracker:
                         pass
                 if self._kf is not None and pred_cam is not None:
                     self._kf = None  # re-anchored: restart the filter from this measurement
+            elif r is not None:
+                weak = r.camera
         if meas is None and image is not None and (rival is not None or index - self._paint_at >= self.cfg.paint_every):
             # real frames: faint, thin lines the ridge detector misses; straight
             # lines of the white paint, scored against the frame (costly: not every frame)
