@@ -385,6 +385,11 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
     return best, best_s
 
 
+#: how much higher a still's other camera must score by :func:`paint_score`
+#: to replace the one it has (:func:`register_frame`: the paint's against the
+#: detector's, a nudged one against either)
+PAINT_SCORE_MARGIN = 0.02
+
 #: the turns (degrees, each way, in pan and in tilt) and the zoom (each way,
 #: a share of the focal length) of :func:`nudged_camera`'s starts: a grid of
 #: 5 x 5 x 3 about the camera, the refinement's reach (20 px at the first
@@ -398,7 +403,8 @@ def nudged_camera(camera: Camera, view: PaintView, size, pitch: PitchModel) -> R
     from starts about ``camera``: turned in pan and tilt by up to
     :data:`NUDGE_TURNS_DEG` and zoomed by :data:`NUDGE_ZOOM` about its centre
     (:func:`geometry.camera.camera_turned`), or None when no start refines
-    to a plausible camera.
+    to a plausible camera showing enough markings (:func:`_best_from_paint`
+    judges the starts, without the lens term or its checks of grass and lines).
 
     A refinement follows the paint pixels nearest the projected markings, so
     a start a few pixels beside the right camera with part of the paint
@@ -421,27 +427,11 @@ def nudged_camera(camera: Camera, view: PaintView, size, pitch: PitchModel) -> R
     -------
     Refinement or None
     """
-    W, _ = size
-    model = ModelSamples.from_pitch(pitch, 0.5)
-    points = marking_points(pitch)
     turns = np.deg2rad(np.concatenate([-np.asarray(NUDGE_TURNS_DEG)[::-1], [0.0], NUDGE_TURNS_DEG]))
-    best, best_score = None, -np.inf
-    for tilt in turns:
-        for pan in turns:
-            for zoom in (-NUDGE_ZOOM, 0.0, NUDGE_ZOOM):
-                if tilt == pan == zoom == 0.0:
-                    continue
-                start = camera_turned(camera, (tilt, pan, 0.0), np.log1p(zoom), camera.center)
-                try:
-                    r = refine_camera(start, view.index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
-                except ValueError:
-                    continue
-                if not plausible(r.camera.center, r.camera.focal, W, pitch)[0]:
-                    continue
-                score = paint_score(r.camera, line_support(r.camera, view.bright, points).share or 0.0, view, size, model)
-                if score > best_score:
-                    best, best_score = r, score
-    return best
+    starts = [camera_turned(camera, (tilt, pan, 0.0), np.log1p(zoom), camera.center) for tilt in turns for pan in turns for zoom in (-NUDGE_ZOOM, 0.0, NUDGE_ZOOM) if not tilt == pan == zoom == 0.0]
+    # (refined, made plausible and scored as the paint's hypotheses are; the
+    # caller's paint_verdict judges the winner's grass, lines and sides)
+    return _best_from_paint(starts, view, size, pitch, False, None, None)[0]
 
 
 def paint_score(camera: Camera, support: float, view: PaintView, size, model: ModelSamples) -> float:
@@ -682,11 +672,12 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     below :data:`PAINT_CHECK`, the paint initialiser
     (:func:`initialise_from_paint`, for real broadcast frames) is tried, and
     of two backed cameras the one with the higher :func:`paint_score` (by
-    more than 0.02) kept; when neither is backed, the paint is looked at
+    more than :data:`PAINT_SCORE_MARGIN`) kept; when neither is backed, the paint is looked at
     again at :data:`FAINT_CONTRAST` (its camera held to :data:`PAINT_CHECK`).
     A camera the paint backs with less than :data:`PAINT_CHECK` is refined
     again from starts about it (:func:`nudged_camera`), whose best replaces
-    it where the paint backs that one and it scores more by 0.02.
+    it where the paint backs that one and it scores more by
+    :data:`PAINT_SCORE_MARGIN`.
     With the frame, the detector's camera is
     judged by its paint even below INIT_ACCEPT (the ridge detector's recall
     on a real frame). The support is in ``info["support"]``.
@@ -746,7 +737,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 # (by the paint initialiser's own measure: a camera that lays a
                 # few markings on one line or on the boards can have the higher
                 # support while it leaves most of the frame's paint unexplained)
-                if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or paint_score(rp.camera, sp or 0.0, view, size, model) > paint_score(r.camera, sup or 0.0, view, size, model) + 0.02:
+                if r is None or (backed(rp.camera, sp, spread_p) and not backed(r.camera, sup, spread)) or paint_score(rp.camera, sp or 0.0, view, size, model) > paint_score(r.camera, sup or 0.0, view, size, model) + PAINT_SCORE_MARGIN:
                     r, sup, spread = rp, sp, spread_p
         if r is None or not backed(r.camera, sup, spread):
             # (nothing backed from the paint at PAINT_CONTRAST: far, thin lines can
@@ -764,7 +755,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             rn = nudged_camera(r.camera, view, size, pitch)
             if rn is not None:
                 sn, spread_n = backed_support(rn.camera, view.bright, pitch)
-                if sn is not None and backed(rn.camera, sn, spread_n) and paint_score(rn.camera, sn, view, size, model) > paint_score(r.camera, sup, view, size, model) + 0.02:
+                if sn is not None and backed(rn.camera, sn, spread_n) and paint_score(rn.camera, sn, view, size, model) > paint_score(r.camera, sup, view, size, model) + PAINT_SCORE_MARGIN:
                     r, sup, spread = rn, sn, spread_n
         if r is not None and (why := unbacked(r.camera, sup, spread)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")

@@ -1021,7 +1021,7 @@ def test_a_still_beside_its_paint_under_a_shadow_is_nudged_onto_it(tmp_path, mon
     generate(tmp_path, preset="real-sd", seed=83, frames=151)
     clip = SynthClip("real-sd", seed=83, frames=151)
     with av.open(str(tmp_path / "clip.mp4")) as c:
-        img = [f for f in c.decode(video=0)][150].to_ndarray(format="bgr24")
+        img = next(f for k, f in enumerate(c.decode(video=0)) if k == 150).to_ndarray(format="bgr24")
     aspect, size = float(clip.pixel_aspect), (img.shape[1], img.shape[0])
     truth = clip.camera(150)
     now = register_image(img, pixel_aspect=aspect, pitch=clip.pitch)
