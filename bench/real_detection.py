@@ -1,0 +1,116 @@
+"""Benchmark: the detector's line pixels on the real reference frames (issue 29, point 1).
+
+Every frame with a reference camera (``bench/real_graphics.py``'s frames: the
+shared stills, the three Premier League frames, every 25th frame of the two
+shared clips), under the variants asked for (default: as it is), goes through
+:func:`arstream.detect.detect`, and its line pixels are compared with the
+reference camera's markings (Law 1 centrelines, a point every 0.25 m; 0.05 m
+for precision), in view and on the detector's grass:
+
+* **recall**: the share of the markings' points with a line pixel within
+  2 px (of a 1280-wide frame);
+* **precision**: the share of the line pixels within 2 px of a marking (the
+  others lie on players, goal frames, the boards' edges, lines of other
+  sports, or markings the reference leaves out: none are left out here
+  but the penalty spots);
+* the straight lines found, and the milliseconds a frame (one thread).
+
+Usage::
+
+    python bench/real_detection.py [--variants NAME ...] [--items PREFIX ...]
+
+The material is read from ``../shared/data/real-broadcast`` (skipped with a
+message where it is absent).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.spatial import cKDTree
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from arstream.detect import detect  # noqa: E402
+from arstream.support import marking_points  # noqa: E402
+from real_footage import SHARED  # noqa: E402
+from real_graphics import GEOMETRIC, VARIANTS, items, scaled  # noqa: E402
+
+
+def _in_view(cam, points: np.ndarray, grass: np.ndarray) -> np.ndarray:
+    """The pixels (M, 2) of ``points`` (N, 3) that ``cam`` puts inside the frame on ``grass`` (H, W)."""
+    H, W = grass.shape
+    uv = cam.project(points)
+    ok = np.all(np.isfinite(uv), axis=1)
+    uv = uv[ok]
+    uv = uv[(uv[:, 0] >= 0) & (uv[:, 0] <= W - 1) & (uv[:, 1] >= 0) & (uv[:, 1] <= H - 1)]
+    ix = np.rint(uv).astype(np.intp)
+    return uv[grass[ix[:, 1], ix[:, 0]] > 0]
+
+
+def frame_row(image: np.ndarray, ref, pitch) -> dict:
+    """One frame's recall, precision, lines and time against its reference camera."""
+    H, W = image.shape[:2]
+    t0 = time.perf_counter()
+    det = detect(image)
+    ms = 1e3 * (time.perf_counter() - t0)
+    reach = 2.0 * W / 1280
+    coarse = _in_view(ref, marking_points(pitch), det.grass_mask)
+    fine = _in_view(ref, marking_points(pitch, spacing=0.05), det.grass_mask)
+    pts = det.line_points
+    recall = precision = float("nan")
+    if len(coarse):
+        recall = float(np.mean(cKDTree(pts).query(coarse)[0] <= reach)) if len(pts) else 0.0
+    if len(pts) and len(fine):
+        precision = float(np.mean(cKDTree(fine).query(pts)[0] <= reach))
+    return {"markings": len(coarse), "points": len(pts), "recall": recall, "precision": precision, "lines": len(det.lines), "ms": ms}
+
+
+def run(variants, prefixes=None) -> list[dict]:
+    rows = []
+    frames = items(prefixes)
+    for v in variants:
+        for name, img, aspect, ref, pitch in frames:
+            H0, W0 = img.shape[:2]
+            im = VARIANTS[v](img)
+            H, W = im.shape[:2]
+            truth = GEOMETRIC[v][1](ref, W0, H0) if v in GEOMETRIC else scaled(ref, W / W0, H / H0)
+            rows.append({"variant": v, "item": name, **frame_row(im, truth, pitch)})
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--variants", nargs="+", default=["clean"], choices=list(VARIANTS))
+    ap.add_argument("--items", nargs="+", help="only the frames whose name starts with one of these")
+    ap.add_argument("--frames", action="store_true", help="print every frame's row, not only each clip's and still's mean")
+    a = ap.parse_args(argv)
+    if not SHARED.exists():
+        print(f"skipped: {SHARED} is absent")
+        return 0
+    cv2.setNumThreads(1)
+    rows = run(a.variants, a.items)
+    print("| variant | item | frames | recall | precision | line pixels | straight lines | ms a frame |")
+    print("|---|---|---|---|---|---|---|---|")
+    groups: dict = {}
+    for r in rows:
+        key = (r["variant"], r["item"] if a.frames else r["item"].split(" ")[0])
+        groups.setdefault(key, []).append(r)
+    for (v, item), rs in groups.items():
+        mean = {k: float(np.nanmean([r[k] for r in rs])) for k in ("recall", "precision", "points", "lines", "ms")}
+        print(f"| {v} | {item} | {len(rs)} | {mean['recall']:.2f} | {mean['precision']:.2f} | {mean['points']:.0f} | {mean['lines']:.1f} | {mean['ms']:.0f} |")
+    for v in a.variants:
+        rs = [r for r in rows if r["variant"] == v]
+        print(f"| {v} | all | {len(rs)} | {np.nanmean([r['recall'] for r in rs]):.2f} | {np.nanmean([r['precision'] for r in rs]):.2f} | | | |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
