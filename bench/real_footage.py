@@ -214,6 +214,7 @@ def clip_rows(clips, pitches: dict, sheets: Path | None, still_every: int = 0) -
                     "jitter_1280": None if score.jitter is None else score.jitter * 1280.0 / score.width,
                     "reference_frames": len(dists),
                     "within_5px": (sum(d <= 5.0 for d in dists) / len(dists)) if dists else None,
+                    "run": name + (f" --pitch {pitch[0]:g}x{pitch[1]:g}" if pitch else ""),
                     "distances": dists,
                     "fps": summary.frames / seconds,
                     "stills": still_agreement(path, recs, still_every, PitchModel(used["length"], used["width"])) if still_every else None,
@@ -294,7 +295,7 @@ def main(argv=None) -> int:
     print("| clip | the run's distance to each reference frame (px @1280, frames 0, 25, 50, ...) |")
     print("|---|---|")
     for r in stills:
-        print(f"| {r['item'].split(' (')[0]} | {', '.join(f'{d:.1f}' for d in r['distances'])} |")
+        print(f"| {r['run']} | {', '.join(f'{d:.1f}' for d in r['distances'])} |")
     if args.still_every:
         print()
         print(f"| clip | every {args.still_every}th frame as a still: backed (line support >= {STILL_BACKED}) | the run within 5 px of it | the run further (frame: px @1280) |")
