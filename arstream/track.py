@@ -830,14 +830,17 @@ class Tracker:
             self.stats["unsmoothed"] += 1
             return self._estimate(index, pts, "ok", meas.camera, meas.confidence, centre, source=source, rms=meas.rms, filtered=False)
         est = self._estimate(index, pts, "ok", cam, meas.confidence, centre, source=source, rms=meas.rms)
-        self._observe_pitch(index, est, lidx)
+        # the size's views on the white paint's pixels where the clip's paint is
+        # used: the detector's line pixels also lie on lines of other sports and on
+        # the boards' edges, which pull a size estimate toward them
+        self._observe_pitch(index, est, view.points if view is not None else lidx.points)
         return est
 
     # --- the pitch's size ---------------------------------------------------------
-    def _observe_pitch(self, index: int, est: CameraEstimate, lidx: LineIndex) -> None:
+    def _observe_pitch(self, index: int, est: CameraEstimate, points: np.ndarray) -> None:
         """With the pitch's size unknown, keep frame ``index`` as a view for its
         estimate (a measured camera about the frozen tripod centre that the paint
-        backs, every ``pitch_spacing`` frames); at ``pitch_views`` views, estimate
+        backs, every ``pitch_spacing`` frames; ``points``: (N, 2) its line pixels); at ``pitch_views`` views, estimate
         it and, if it differs from the current size by more than its
         uncertainty, track with it from here on."""
         views, c = self._pitch_views, self.cfg
@@ -846,7 +849,7 @@ class Tracker:
         if index - self._pitch_view_at < c.pitch_spacing or (est.info.get("support") or 0.0) < c.pitch_support:
             return
         self._pitch_view_at = index
-        views.append(PitchView(est.camera, lidx.points.copy(), self.size))
+        views.append(PitchView(est.camera, np.array(points, np.float64), self.size))
         if self._watch_pitch or len(views) not in c.pitch_views:
             return
         try:

@@ -15,9 +15,13 @@ for precision), in view and on the detector's grass:
   but the penalty spots);
 * the straight lines found, and the milliseconds a frame (one thread).
 
+With ``--thin-lines`` every frame goes through the detector a second time
+with its rule for thin lines on (``Detector(thin_lines=True)``), its rows
+marked ``+thin`` beside the default's, in the same process.
+
 Usage::
 
-    python bench/real_detection.py [--variants NAME ...] [--items PREFIX ...]
+    python bench/real_detection.py [--variants NAME ...] [--items PREFIX ...] [--thin-lines]
 
 The material is read from ``../shared/data/real-broadcast`` (skipped with a
 message where it is absent).
@@ -60,11 +64,11 @@ def _share_near(queries: np.ndarray, points: np.ndarray, reach: float) -> float:
     return float(np.mean(np.isfinite(LineIndex(points).nearest(queries, reach)[0])))
 
 
-def frame_row(image: np.ndarray, ref, pitch) -> dict:
+def frame_row(image: np.ndarray, ref, pitch, thin_lines: bool = False) -> dict:
     """One frame's recall, precision, lines and time against its reference camera."""
     H, W = image.shape[:2]
     t0 = time.perf_counter()
-    det = detect(image)
+    det = detect(image, thin_lines=thin_lines)
     ms = 1e3 * (time.perf_counter() - t0)
     reach = 2.0 * W / 1280
     coarse = _in_view(ref, marking_points(pitch), det.grass_mask)
@@ -74,16 +78,17 @@ def frame_row(image: np.ndarray, ref, pitch) -> dict:
     return {"markings": len(coarse), "points": len(det.line_points), "recall": recall, "precision": precision, "lines": len(det.lines), "ms": ms}
 
 
-def run(variants, prefixes=None) -> list[dict]:
+def run(variants, prefixes=None, thin_lines=(False,)) -> list[dict]:
     rows = []
     frames = items(prefixes)
     for v in variants:
-        for name, img, aspect, ref, pitch in frames:
-            H0, W0 = img.shape[:2]
-            im = VARIANTS[v](img)
-            H, W = im.shape[:2]
-            truth = GEOMETRIC[v][1](ref, W0, H0) if v in GEOMETRIC else scaled(ref, W / W0, H / H0)
-            rows.append({"variant": v, "item": name, **frame_row(im, truth, pitch)})
+        for thin in thin_lines:
+            for name, img, aspect, ref, pitch in frames:
+                H0, W0 = img.shape[:2]
+                im = VARIANTS[v](img)
+                H, W = im.shape[:2]
+                truth = GEOMETRIC[v][1](ref, W0, H0) if v in GEOMETRIC else scaled(ref, W / W0, H / H0)
+                rows.append({"variant": v + (" +thin" if thin else ""), "item": name, **frame_row(im, truth, pitch, thin)})
     return rows
 
 
@@ -92,13 +97,14 @@ def main(argv=None) -> int:
     ap.add_argument("--variants", nargs="+", default=["clean"], choices=list(VARIANTS))
     ap.add_argument("--items", nargs="+", help="only the frames whose name starts with one of these")
     ap.add_argument("--frames", action="store_true", help="print every frame's row, not only each clip's and still's mean")
+    ap.add_argument("--thin-lines", action="store_true", help="also with the detector's rule for thin lines on (rows marked +thin)")
     a = ap.parse_args(argv)
     if not SHARED.exists():
         print(f"skipped: {SHARED} is absent")
         return 0
     cv2.setNumThreads(1)
     warm_up()  # (the compiled kernels loaded before the first frame is timed)
-    rows = run(a.variants, a.items)
+    rows = run(a.variants, a.items, (False, True) if a.thin_lines else (False,))
     print("| variant | item | frames | recall | precision | line pixels | straight lines | ms a frame |")
     print("|---|---|---|---|---|---|---|---|")
     groups: dict = {}
@@ -108,7 +114,7 @@ def main(argv=None) -> int:
     for (v, item), rs in groups.items():
         mean = {k: float(np.nanmean([r[k] for r in rs])) for k in ("recall", "precision", "points", "lines", "ms")}
         print(f"| {v} | {item} | {len(rs)} | {mean['recall']:.2f} | {mean['precision']:.2f} | {mean['points']:.0f} | {mean['lines']:.1f} | {mean['ms']:.0f} |")
-    for v in a.variants:
+    for v in dict.fromkeys(r["variant"] for r in rows):
         rs = [r for r in rows if r["variant"] == v]
         print(f"| {v} | all | {len(rs)} | {np.nanmean([r['recall'] for r in rs]):.2f} | {np.nanmean([r['precision'] for r in rs]):.2f} | | | |")
     return 0

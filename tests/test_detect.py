@@ -560,6 +560,134 @@ def test_coarse_pass_is_skipped_only_when_every_line_is_thin(monkeypatch):
     wrong = Detector(*size).process(img, motion=1.0, line_width=2.0)  # a false "thin" hint
     assert len(wrong.line_points) < 0.2 * len(hinted.line_points)
 
+
+def _thin_line(width: float, rim: float, size=(60, 300)) -> tuple[np.ndarray, np.ndarray]:
+    """A far line as a real frame shows it at the working resolution (the penalty
+    area's front line of ``israel_league_wide`` frame 175 at 640 px wide: luma
+    117-119 above, 150-157 on the line, 101-105 in a sharpened picture's dark rim
+    below, 106-107 beyond): a ``width`` px line 40 levels above the grass (118 above
+    it, 106 below: a stripe's edge along it), with a 1 px rim ``rim`` levels darker
+    below it, rising 6 px over the 300 columns (it crosses the pixel rows), area
+    sampled. Returns the image and the line's centre row at each column."""
+    h, w = size
+    ys, xs = np.arange(h)[:, None] + 0.0, np.arange(w)[None, :]
+    yc = 30.2 + 0.02 * xs
+
+    def share(a, b):  # of each pixel row [y - 0.5, y + 0.5] inside [a, b]
+        return np.clip(np.minimum(ys + 0.5, b) - np.maximum(ys - 0.5, a), 0.0, None)
+
+    g = np.where(ys < yc, 118.0, 106.0) + 40.0 * share(yc - width / 2, yc + width / 2) - rim * share(yc + width / 2, yc + width / 2 + 1)
+    return np.clip(np.rint(g), 0, 255).astype(np.uint8), yc[0]
+
+
+@pytest.mark.parametrize("width, rim, columns", [(1.0, 0.0, 0.95), (1.0, 14.0, 0.7), (1.5, 14.0, 0.9), (2.0, 14.0, 0.95), (3.0, 14.0, 0.95)])
+def test_a_thin_far_line_is_found_along_its_length(width, rim, columns):
+    # smoothed at the fine scale (1.2 px) a 1 px line keeps a third of its height, so
+    # its contrast over the brighter side is judged at its brightest pixel; and the
+    # bright side and the dark rim pull the smoothed maximum up to a pixel off that
+    # pixel, where the line is thin. Judged on the smoothed profile alone, with the
+    # maximum held to its own pixel, the columns with a point were 0, 0, 0, 0.83 and
+    # 0.98 of these (12.7 levels: the detector's threshold for this grass's luma)
+    from arstream.detect.ridges import grass_luma, ridge_points
+
+    g, yc = _thin_line(width, rim)
+    region = np.full(g.shape, 255, np.uint8)
+    # the grass's luma as the detector measures it: the grass model leaves the
+    # line's own pixels out (none is 10 levels above the brighter side's 118)
+    gl = grass_luma(g, np.where(g < 128, 255, 0).astype(np.uint8), 112.0)
+    rp = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=12.7, grass_luma=gl, bufs={})
+    col = np.rint(rp.pts[:, 0]).astype(int)
+    off = rp.pts[:, 1] - yc[col]
+    assert np.all(np.abs(off) < 1.0), off  # every point within a pixel of the centre
+    found = np.zeros(g.shape[1], bool)
+    found[col] = True
+    assert found[5:-5].mean() >= columns
+    # pulled toward the bright side (up) by the step along the line, as the wider
+    # lines' centres are (the step's smoothed slope is not the linear background
+    # the slope term takes out): 0.50 px for a 1 px line without a rim, 0.74 with it
+    assert -0.9 < np.mean(off) < 0.0
+    if width < 2.0:  # the rule off (no grass_luma): the smoothed contrast alone misses the line
+        assert len(ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=12.7, bufs={}).pts) == 0
+
+
+def test_the_detector_keeps_a_thin_far_line_whole_with_thin_lines_on():
+    # a 1 px line 40 levels brighter than noisy grass (sigma 3), crossing the pixel
+    # rows (area sampled), at the working resolution: by the smoothed contrast alone
+    # it comes out in dashes, where it crosses pixel centres (0.6 of the columns);
+    # judged by its own contrast over the grass around it, whole
+    rng = np.random.default_rng(0)
+    h, w = 360, 640
+    ys, xs = np.arange(h)[:, None] + 0.0, np.arange(w)[None, :]
+    yc = 120.3 + 0.03 * xs
+    share = np.clip(np.minimum(ys + 0.5, yc + 0.5) - np.maximum(ys - 0.5, yc - 0.5), 0.0, None)
+    img = np.array([50.0, 130.0, 60.0]) + rng.normal(0, 3, (h, w, 1)) + share[..., None] * np.array([45.0, 40.0, 45.0])
+    img = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    columns = {}
+    for thin in (False, True):
+        d = Detector(w, h, thin_lines=thin).process(img)
+        p = d.line_points
+        assert np.all(np.abs(p[:, 1] - (120.3 + 0.03 * p[:, 0])) < 1.0)  # every point on the line
+        found = np.zeros(w, bool)
+        found[np.clip(np.rint(p[:, 0]).astype(int), 0, w - 1)] = True
+        columns[thin] = found[10:-10].mean()
+        assert len(d.lines) == 1
+    assert columns[False] < 0.75 and columns[True] >= 0.98, columns
+
+
+def _legs(gap: float, size=(60, 300)) -> np.ndarray:
+    """Pairs of dark legs (5 px wide, 70 levels under the grass's 110) ``gap`` px
+    apart, every 20 columns over rows 10-49, area sampled: the strip of grass
+    between two legs is a thin ridge over them, no brighter than the grass."""
+    xs = np.arange(size[1]) + 0.0
+    row = np.full(size[1], 110.0)
+    for x0 in range(10, size[1] - 20, 20):
+        for a in (x0, x0 + 5 + gap):
+            row -= 70.0 * np.clip(np.minimum(xs + 0.5, a + 5) - np.maximum(xs - 0.5, a), 0.0, None)
+    g = np.full(size, 110, np.uint8)
+    g[10:50] = np.clip(np.rint(row), 0, 255).astype(np.uint8)
+    return g
+
+
+@pytest.mark.parametrize("gap", [2.5, 3.0])
+def test_grass_between_legs_is_not_judged_as_a_thin_line(gap):
+    # judged by its own contrast over the legs (a thin line's rule with no grass
+    # below it: -inf), the strip between two legs passed where its smoothed contrast
+    # did not: 1120 and 1172 points, against 560 and 472 by the smoothed contrast
+    # alone. With the grass's luma around it known, a strip no brighter than the
+    # grass is judged as any wide line is: exactly the points of the rule off
+    from arstream.detect.ridges import grass_luma, ridge_points
+
+    g = _legs(gap)
+    region = np.full(g.shape, 255, np.uint8)
+
+    def count(grass):
+        return len(ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=12.0, grass_luma=grass, bufs={}).pts)
+
+    gl = grass_luma(g, np.where(g >= 105, 255, 0).astype(np.uint8), 110.0)
+    rule_off = count(None)
+    assert count(gl) == rule_off
+    assert count(np.full((1, 1), -np.inf, np.float32)) > 1.5 * rule_off
+
+
+def test_grass_luma_is_the_mean_of_the_grass_pixels_around_each_pixel():
+    from arstream.detect.ridges import grass_luma
+
+    rng = np.random.default_rng(3)
+    g = rng.integers(0, 256, (12, 16)).astype(np.uint8)
+    grass = (rng.random((12, 16)) < 0.5).astype(np.uint8) * 255
+    grass[:, 12:] = 0  # no grass in the last four columns: the fallback beyond column 13
+    gl = grass_luma(g, grass, 77.0, cells=5)
+    assert gl.dtype == np.float32 and gl.shape == g.shape
+    pad_g = np.pad(g.astype(float), 2, mode="edge")
+    pad_m = np.pad(grass > 0, 2, mode="edge")
+    for y in range(12):
+        for x in range(16):
+            m = pad_m[y : y + 5, x : x + 5]
+            want = pad_g[y : y + 5, x : x + 5][m].mean() if m.any() else 77.0
+            assert gl[y, x] == pytest.approx(want, rel=1e-5), (y, x)
+    assert np.all(gl[:, 14:] == 77.0)
+
+
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly

@@ -164,6 +164,11 @@ def _sup(value, n=30, lost=0):
         ((0.82, 0.99, 0.93), (0, 1, 0), 1),  # 3 % fewer frames: allowed
         ((None, 0.90, 0.80), (30, 0, 0), 0),  # the default found too few cameras: no baseline, it stays
         ((0.88, 0.94, 0.95), (0, 0, 0), 0),  # shorter and longer both win: the length is open, the default stays
+        # ... but a side on 10 % fewer frames scored only its easy ones (a wrong length
+        # losing the frames that refute it) and holds nothing open: the other side wins
+        ((0.81, 0.92, 0.92), (0, 0, 3), 1),
+        ((0.81, 0.92, 0.92), (0, 3, 0), 2),  # (either side)
+        ((0.81, 0.92, 0.92), (0, 1, 1), 0),  # both on frames within 5 points of the default's: open
     ],
 )
 def test_choose_size_rule(medians, lost, chosen):

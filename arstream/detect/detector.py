@@ -13,7 +13,7 @@ from arstream.detect.kernels.points import chains, cut_by_line, fit_lines, grid_
 from .ellipses import find_ellipses
 from .grass import GrassModel, grass_masks
 from .results import DetectedEllipse, DetectedLine, Detections
-from .ridges import RidgePoints, band_centres, ridge_points
+from .ridges import RidgePoints, band_centres, grass_luma, ridge_points
 from .segments import group_lines
 
 __all__ = ["Detector", "detect"]
@@ -56,6 +56,15 @@ class Detector:
         Least share of the frame that must be grass for a pitch view.
     max_ellipses : int
         Most ellipses reported.
+    thin_lines : bool
+        Judge a line narrower than the fine scale by its own contrast where it
+        stands above the grass around it (:func:`arstream.detect.ridges.ridge_points`'
+        ``grass_luma``): the far lines of a real frame, one or two pixels wide,
+        which smoothing takes most of the height of. Off by default: it about
+        doubles the markings' pixels found on the shared real frames
+        (``bench/real_detection.py --thin-lines``), but the tracker's
+        tripod-centre and pan-sweep decisions are not yet tuned to the denser
+        pixels (docs/real-footage.md).
     """
 
     def __init__(
@@ -69,6 +78,7 @@ class Detector:
         tau: float | None = None,
         min_grass: float = 0.1,
         max_ellipses: int = 3,
+        thin_lines: bool = False,
     ):
         try:
             width, height = int(width), int(height)
@@ -85,6 +95,7 @@ class Detector:
         if not 0.0 < min_grass < 1.0:
             raise ValueError(f"min_grass must be in (0, 1), got {min_grass}")
         self.width, self.height = width, height
+        self.thin_lines = bool(thin_lines)
         self.factor = max(1, width // int(work_width))
         w, h = max(width // self.factor, 16), max(height // self.factor, 16)
         self.work_size = (w, h)
@@ -243,7 +254,10 @@ class Detector:
         # wide lines (zoomed in, or smeared by a fast pan). Coarse points count
         # only where the fine scale found nothing.
         kf = 11 if self.tau is None else 2 * max(2, int(np.ceil(self.tau / self.factor))) + 1
-        fine = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, bufs=self._rbufs)
+        # the grass's own luma around each line (a strip of grass between a player's
+        # legs is a thin bright ridge, no brighter than the grass)
+        gl = grass_luma(tg, g.raw, luma) if self.thin_lines else None
+        fine = ridge_points(gray, region, sigma=1.2, kernel=kf, min_contrast=min_contrast, grass_luma=gl, bufs=self._rbufs)
         wc, hc = self._coarse_size
         slow = motion is not None and motion / self.factor < SQUASH_MOTION
         if slow and line_width is not None and line_width / self.factor <= FINE_WIDTH:
@@ -251,7 +265,7 @@ class Detector:
         else:
             gc = cv2.resize(gray, (wc, hc), dst=self._gray_c, interpolation=cv2.INTER_AREA)
             rc = cv2.resize(rt, (wc, hc), dst=self._region_c, interpolation=cv2.INTER_NEAREST)
-            coarse = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, bufs=self._rbufs_c)
+            coarse = ridge_points(gc, rc, sigma=1.3, kernel=11, min_contrast=min_contrast, grass_luma=gl, bufs=self._rbufs_c)
             pts, nrm = self._merge(fine.pts, fine.nrm, coarse, (w / wc, h / hc))
         # a fast horizontal pan smears the near-vertical lines (the halfway line)
         # sideways into wide, faint bands: look for them on the frame squashed
@@ -264,7 +278,7 @@ class Detector:
             ws = self._squash_w
             gs = cv2.resize(gray, (ws, h), dst=self._gray_s, interpolation=cv2.INTER_AREA)
             rs = cv2.resize(region, (ws, h), dst=self._region_s, interpolation=cv2.INTER_NEAREST)
-            squashed = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, bufs=self._rbufs_s)
+            squashed = ridge_points(gs, rs, sigma=1.2, kernel=11, min_contrast=0.7 * min_contrast, band_width=np.inf, grass_luma=gl, bufs=self._rbufs_s)
             squashed = self._long_runs(squashed, (ws, h), min_rows=max(20, h // 9))
         if smeared and len(squashed.pts):
             # blocked only where the fine scale found the same line sharp (within 2 px

@@ -13,9 +13,15 @@ Three steps, at the working resolution:
    background through the two side samples below) is taken out, so that a
    line on the edge of a mowing stripe or a shadow is not pulled toward the
    bright side; a candidate is a centre point when that maximum falls inside
-   its own pixel (``|t n| <= 0.5``). A centre must also be brighter than the
-   grass on *both* sides at a distance beyond the line's half width (a step
-   edge is bright on one side only) and be elongated (``|l2| < |l1|``).
+   its own pixel (``|t n| <= 0.5``; within a pixel for a line thinner than
+   the scale, whose smoothed maximum a bright side and a dark one pull off
+   its brightest pixel). A centre must also be brighter than the grass on
+   *both* sides at a distance beyond the line's half width (a step edge is
+   bright on one side only), by the smoothed contrast or, on a thin line
+   (its smoothed profile about as wide as the scale) brighter than the grass
+   around it, by its own (its brightest pixel's: smoothing keeps a third of a
+   1 px line's height, and the far lines of a real frame are one or two
+   pixels wide), and be elongated (``|l2| < |l1|``).
    Past the top-hat, the smoothing and the candidate mask (OpenCV), steps 1
    and 2 are one compiled loop over the image
    (:func:`arstream.detect.kernels.ridges.ridge_scan`).
@@ -37,7 +43,9 @@ import numpy as np
 
 from arstream.detect.kernels.ridges import band_scan, ridge_scan
 
-__all__ = ["RidgePoints", "ridge_points"]
+__all__ = ["RidgePoints", "grass_luma", "ridge_points"]
+
+_NEVER_THIN = np.full((1, 1), np.inf, np.float32)  # no pixel stands above it: the thin-line rule is off
 
 
 class RidgePoints:
@@ -56,6 +64,7 @@ def ridge_points(
     min_contrast: float,
     curvature_ratio: float = 0.1,
     band_width: float | None = None,
+    grass_luma: np.ndarray | None = None,
     bufs: dict,
 ) -> RidgePoints:
     """Sub-pixel ridge centres of bright thin lines.
@@ -72,6 +81,11 @@ def ridge_points(
     band_width : profile width (px, by the curvature at the centre) from which a
         point is centred between its band's edges (:func:`band_centres`); by
         default ``4 sigma``; ``inf``: never
+    grass_luma : (gh, gw) float32, the grass's local luma on a coarser grid over
+        the same image (:func:`grass_luma`): a thin line standing
+        ``min_contrast`` above it is judged by its own (unsmoothed) contrast
+        (step 2 above). None: every line by its smoothed contrast (the rule
+        for thin lines off)
     bufs : dict of reusable buffers (filled on first use)
 
     Returns
@@ -106,7 +120,8 @@ def ridge_points(
     cv = cand[:, :w]
     cv2.threshold(th, min(int(np.floor(thr)), 255), 255, cv2.THRESH_BINARY, dst=cv)  # th > thr for integer th
     cv2.bitwise_and(cv, region, dst=cv)
-    pts, nrm, aux, n_cand = ridge_scan(th, cand, cand.view(np.uint64), B, float(min_contrast), 0.5 * kernel, float(curvature_ratio))
+    gl = _NEVER_THIN if grass_luma is None else np.ascontiguousarray(grass_luma, np.float32)
+    pts, nrm, aux, n_cand = ridge_scan(th, cand, cand.view(np.uint64), B, gray, gl, float(sigma), float(min_contrast), 0.5 * kernel, float(curvature_ratio))
     c, b1, b2, l1 = aux.T
     contrast = c - np.maximum(b1, b2)
     # a band wider than the scale (a line smeared by a pan): on a step of the grass (a
@@ -126,6 +141,28 @@ def ridge_points(
             wt = np.clip((width - bw) / (2.0 * sigma), 0.0, 1.0) * np.clip((1.7 * f - width) / (0.3 * f), 0.0, 1.0)
             pts[sel] += (wt * shift)[:, None] * nrm[sel]
     return RidgePoints(pts, nrm, contrast, n_cand)
+
+
+def grass_luma(gray: np.ndarray, grass: np.ndarray, fallback: float, *, cells: int = 5) -> np.ndarray:
+    """The grass's local luma: the mean luma of the grass pixels in a
+    ``cells`` x ``cells`` box around each pixel (``fallback`` where the box
+    has none).
+
+    Parameters
+    ----------
+    gray : (h, w) uint8 luma (a small copy of the frame)
+    grass : (h, w) uint8, non-zero on grass pixels (lines, players, shadows'
+        dark grass: what the grass model says)
+    fallback : float, grey level where no grass is near
+
+    Returns
+    -------
+    (h, w) float32
+    """
+    m = (grass > 0).astype(np.float32)
+    num = cv2.boxFilter(gray.astype(np.float32) * m, -1, (cells, cells), normalize=False, borderType=cv2.BORDER_REPLICATE)
+    den = cv2.boxFilter(m, -1, (cells, cells), normalize=False, borderType=cv2.BORDER_REPLICATE)
+    return np.where(den > 0.5, num / np.maximum(den, 1.0), np.float32(fallback)).astype(np.float32)
 
 
 def band_centres(B: np.ndarray, pts: np.ndarray, nrm: np.ndarray, *, reach: int) -> tuple[np.ndarray, np.ndarray]:

@@ -24,7 +24,7 @@ def _grow2(a, n):
 
 
 @nb.njit(**_JIT)
-def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
+def ridge_scan(th, cand, words, B, G, grass, sigma, min_contrast, d, curvature_ratio):
     """Sub-pixel ridge centres at the candidate pixels of a top-hat image.
 
     A candidate is a pixel where ``cand`` is non-zero (the caller's mask of
@@ -35,9 +35,26 @@ def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
     ``l1``); a centre needs ``l1 < 0``, an elongated profile (``l2 > l1 / 2``),
     the ridge maximum within its own pixel along ``n`` after the grass's slope
     across the line is taken out (a linear background through the samples
-    ``d`` px either side, when they differ by at most half the contrast), a
-    contrast over the brighter side of at least ``min_contrast`` and a
-    curvature ``-l1 >= curvature_ratio * contrast``.
+    ``d`` px either side, when they differ by at most half the line's
+    contrast), a contrast over the brighter side of at least ``min_contrast``
+    and a curvature ``-l1 >= curvature_ratio * c_B`` (``c_B``: ``B``'s
+    contrast over the brighter side).
+
+    The contrast is ``B``'s, except on a thin line: smoothed, a line narrower
+    than the scale loses most of its height (a line 1 px wide keeps a third
+    at ``sigma`` 1.2 px), so the far lines of a real frame, one or two pixels
+    wide, would fail a threshold set for the paint's own contrast. A line is
+    thin when the smoothed profile's half-height width (a Gaussian's, from
+    its height over the sides' mean and ``l1``) lies between 2.17 ``sigma``
+    (a line of no width, 2.355 ``sigma``, less the 3x3 differences' error)
+    and 3.3 ``sigma`` (a line about 4 px wide at 1.2 px: wider ones keep 90 %
+    of their height), and when its luma ``G`` (or ``B`` where brighter)
+    stands ``min_contrast`` above the grass around it (``grass``: a strip of
+    grass between a player's legs is a thin ridge as bright as the grass).
+    Its contrast is then its own: that luma over the brighter side's ``B``.
+    A thin line whose smoothed contrast is under two thirds of its own may
+    have its ridge maximum up to a pixel from the candidate (a bright side
+    and a dark one pull the smoothed maximum off the brightest pixel).
 
     Parameters
     ----------
@@ -47,6 +64,10 @@ def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
     words : ``cand`` viewed as (h, wp / 8) uint64: the scan skips 8 pixels
         without a candidate at once
     B : (h, w) float32 Gaussian-smoothed luma
+    G : (h, w) uint8 luma (unsmoothed)
+    grass : (gh, gw) float32 the grass's local luma, on a grid that spans the
+        image (pixel (x, y) reads cell (x gw / w, y gh / h), truncated)
+    sigma : float, the scale of ``B``'s Gaussian (px)
     min_contrast, d, curvature_ratio : float
 
     Returns
@@ -67,6 +88,13 @@ def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
     two = np.float32(2.0)
     quarter = np.float32(0.25)
     d2 = np.float32(2.0 * d)
+    thin = np.float32(1.5)
+    fwhm2 = np.float32(8.0 * np.log(2.0))  # a Gaussian's squared half-height width over its variance
+    thin_lo = np.float32((2.17 * sigma) ** 2)
+    thin_hi = np.float32((3.3 * sigma) ** 2)
+    gh, gw = grass.shape
+    gsx = gw / w
+    gsy = gh / h
     nw = words.shape[1]
     for y in range(2, h - 2):
         trow = th[y]
@@ -118,13 +146,32 @@ def ridge_scan(th, cand, words, B, min_contrast, d, curvature_ratio):
                 b1 = B[sy1, sx1]
                 b2 = B[sy2, sx2]
                 contrast = c - max(b1, b2)
-                slope = (b1 - b2) / d2 if abs(b1 - b2) <= half * contrast else np.float32(0.0)
+                # a thin line's contrast is its own: its brightest pixel (the
+                # candidate) over the brighter side (smoothing takes most of the
+                # height of a line narrower than the scale). Thin: the smoothed
+                # profile's half-height width, from its height over the sides' mean
+                # and its curvature as a Gaussian's, is the scale's or a little more;
+                # and the pixel is brighter than the grass around it
+                top = max(np.float32(G[y, x]), c)
+                own = contrast
+                rise = c - half * (b1 + b2)
+                fw2 = fwhm2 * rise / -l1
+                if fw2 >= thin_lo and fw2 <= thin_hi and top - grass[min(int(y * gsy), gh - 1), min(int(x * gsx), gw - 1)] >= min_contrast:
+                    own = top - max(b1, b2)
+                slope = (b1 - b2) / d2 if abs(b1 - b2) <= half * own else np.float32(0.0)
                 tt = -(gx * nx + gy * ny - slope) / l1
                 ox = tt * nx
                 oy = tt * ny
-                if not (abs(ox) <= 0.5 and abs(oy) <= 0.5):
+                # a thin line smoothed to under two thirds of its own contrast (under
+                # about 2.3 px wide at sigma 1.2), between a bright and a dark side (a
+                # mowing stripe, a sharpened picture's dark rim) has the smoothed
+                # maximum pulled up to a pixel off its brightest pixel, toward the
+                # bright side; the neighbour there is no candidate (dimmer), so the
+                # line would be found only where it crosses pixel centres: dashes
+                lim = np.float32(1.0) if own >= thin * contrast else half
+                if not (abs(ox) <= lim and abs(oy) <= lim):
                     continue
-                if not (contrast >= min_contrast and -l1 >= curvature_ratio * contrast):
+                if not (own >= min_contrast and -l1 >= curvature_ratio * contrast):
                     continue
                 if n == pts.shape[0]:
                     pts = _grow2(pts, n)
@@ -231,5 +278,5 @@ def warm_up() -> None:
     th = np.zeros((8, 8), np.uint8)
     B = np.zeros((8, 8), np.float32)
     p = np.zeros((1, 2))
-    ridge_scan(th, th, th.view(np.uint64), B, 5.0, 5.5, 0.1)
+    ridge_scan(th, th, th.view(np.uint64), B, th, B, 1.2, 5.0, 5.5, 0.1)
     band_scan(B, p, np.ones((1, 2)), 6)
