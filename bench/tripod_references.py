@@ -45,27 +45,24 @@ from arstream.detect import Detector  # noqa: E402
 from arstream.evaluate import distance_1280, record_pitches  # noqa: E402
 from arstream.evaluate_video import cameras_by_frame  # noqa: E402
 from arstream.initialise import FrameViews  # noqa: E402
+from arstream.source import Frame  # noqa: E402
+from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis  # noqa: E402
 from arstream.sink import read_jsonl  # noqa: E402
 from arstream.solve import LineIndex, ModelSamples, refine_camera, seated  # noqa: E402
 from arstream.support import bright_mask, line_support, marking_points  # noqa: E402
 from arstream.tripod import fit_tripod  # noqa: E402
 from real_footage import CLIPS, SHARED, reference_frames  # noqa: E402
 
-#: the tracker's analysis width (``arstream process``'s default)
-ANALYSIS_WIDTH = 640
-
-
 def paint_index(frame: np.ndarray, index: int) -> LineIndex:
     """The frame's line pixels as the tracker sees them on real frames (the
-    detector's and the paint's, found at :data:`ANALYSIS_WIDTH`), in frame
-    pixels (analysis pixel ``u`` is frame pixel ``s u + (s - 1) / 2``)."""
+    detector's and the paint's, found on the analysis frame ``process`` makes:
+    :class:`arstream.pipeline.stages.Analysis`), in frame pixels."""
     H, W = frame.shape[:2]
-    w, h = ANALYSIS_WIDTH, int(round(H * ANALYSIS_WIDTH / W))
-    small = cv2.resize(frame, (w, h), interpolation=cv2.INTER_AREA)
-    det = Detector(w, h).process(small)
-    view = FrameViews().view(index, small, det, 2)
-    s = np.array([W / w, H / h])
-    return LineIndex(np.concatenate([det.line_points, view.points]) * s + (s - 1) / 2)
+    an = Analysis(W, H, DEFAULT_ANALYSIS_WIDTH)
+    small = an.prepare(Frame(0, 0.0, frame)).get("analysis", frame)
+    det = Detector(small.shape[1], small.shape[0]).process(small)
+    view = FrameViews().view(index, small, det, an.support_reach)
+    return LineIndex(an.points(np.concatenate([det.line_points, view.points])))
 
 
 def clip_rows(name: str, pred: Path | None) -> tuple[dict, list[dict]]:
