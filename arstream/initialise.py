@@ -289,7 +289,7 @@ class FrameViews:
         return self._views[reach]
 
 
-def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0, seeds=()) -> tuple[Refinement | None, float | None]:
+def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: PitchModel, keep: int = 8, estimate_k1: bool = True, circles=(), lines=(), min_on_grass: float | None = None, min_on_lines: float | None = None, min_sides: float | None = None, refine_family: bool = False, penalty_arcs: bool = False, more_splits: int = 0, seeds=(), explain_circles: bool = False) -> tuple[Refinement | None, float | None]:
     """A camera for a real frame from its paint alone (no temporal help).
 
     Line hypotheses (:func:`arstream.solve_lines.cameras_from_line_pairs`, scored on
@@ -327,7 +327,9 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     :func:`paint_score` is higher. ``seeds``: cameras from elsewhere judged
     with the hypotheses, refined and scored alike (the tracker's: the
     detector's camera of the frame where it fell short of
-    :data:`INIT_ACCEPT`). Returns (refinement, its support), or (None, None) when
+    :data:`INIT_ACCEPT`). ``explain_circles``: a hypothesis that leaves a
+    closed-circle ellipse of ``circles`` unexplained (:func:`circle_verdict`)
+    is left out (a still). Returns (refinement, its support), or (None, None) when
     no hypothesis was found.
     """
     W, H = size
@@ -340,25 +342,27 @@ def initialise_from_paint(view: PaintView, size, *, principal_point, pitch: Pitc
     n_lines = len(cands)
     if penalty_arcs:
         cands += penalty_arc_cameras(view, size, principal_point=principal_point, pitch=pitch, refine=refine_family)
-    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides, along_from=n_lines)
+    ring = circles if explain_circles else ()
+    best, best_s = _best_from_paint(cands, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides, along_from=n_lines, circles=ring)
     if more_splits > 0 and hy is not None and best_s < MORE_SPLITS_BELOW:
         # (nothing backed from the first splits: a long lens's markings across
         # the pitch are nearly parallel in the picture, and the boards' or a
         # track's edges and a flat penalty arc's pieces join their family)
         hx = cameras_from_line_pairs(seg_lines, seg_ends, size, principal_point, near, pitch, keep=keep, splits=SPLITS + more_splits, first_split=SPLITS)
-        bx, sx = _best_from_paint(hx.cameras, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides)
+        bx, sx = _best_from_paint(hx.cameras, view, size, pitch, estimate_k1, min_on_grass, min_on_lines, min_sides, circles=ring)
         model = ModelSamples.from_pitch(pitch, 0.5)
         if bx is not None and sx >= MORE_SPLITS_CHECK and (best is None or paint_score(bx.camera, sx, view, size, model) > paint_score(best.camera, best_s, view, size, model)):
             best, best_s = bx, sx
     return (best, best_s) if best is not None else (None, None)
 
 
-def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, min_sides: float | None = None, along_from: int | None = None) -> tuple[Refinement | None, float]:
+def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchModel, estimate_k1: bool, min_on_grass: float | None, min_on_lines: float | None, min_sides: float | None = None, along_from: int | None = None, circles=()) -> tuple[Refinement | None, float]:
     """:func:`initialise_from_paint`'s judgement of its hypotheses ``cands``:
     (the best refinement, its line support), or (None, -1). Each must keep
     the areas' sides in view on their paint (:func:`arstream.support.along_support`)
     at ``min_sides``, and those from ``along_from`` on (the penalty arc's)
-    at :data:`MIN_ALONG`."""
+    at :data:`MIN_ALONG`; with ``circles`` (the detector's ellipses), each
+    must lay its markings on the closed ones (:func:`circle_verdict`)."""
     W, H = size
     model = ModelSamples.from_pitch(pitch, 0.5)
     points = marking_points(pitch)
@@ -387,6 +391,8 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
         need = MIN_ALONG if along_from is not None and j >= along_from else min_sides
         if need is not None and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < need:
             continue  # slid along the lines across the pitch, the areas' sides off their paint
+        if circles and circle_verdict(rf.camera, circles, size, pitch) is not None:
+            continue  # another part of the pitch laid over the centre circle
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
             best, best_s, best_score = rf, s0, score
@@ -625,7 +631,7 @@ def view_supports(px: np.ndarray, inside: np.ndarray, index: LineIndex, radius: 
     return hits / np.maximum(counts, 1)
 
 
-def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True, min_sides: float | None = MIN_SIDES, more_splits: int = MORE_SPLITS) -> tuple[Refinement | None, float | None]:
+def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchModel, detections, penalty_arcs: bool = True, min_sides: float | None = MIN_SIDES, more_splits: int = MORE_SPLITS, explain_circles: bool = False) -> tuple[Refinement | None, float | None]:
     """The paint initialiser (:func:`initialise_from_paint`) as for a frame
     without temporal help: with the detector's ellipses and lines, the centre
     circle's family refined, and hypotheses off the grass
@@ -635,8 +641,60 @@ def still_paint_camera(view: PaintView, size, *, principal_point, pitch: PitchMo
     ``min_sides``, :data:`MIN_SIDES`; and when the first splits of its lines
     give nothing backed, ``more_splits``, :data:`MORE_SPLITS`), and the
     tracker's against its own fresh camera (without them:
-    :func:`initialise_from_paint`)."""
-    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, min_sides=min_sides, refine_family=True, penalty_arcs=penalty_arcs, more_splits=more_splits)
+    :func:`initialise_from_paint`). ``explain_circles``: hypotheses that
+    leave the detector's centre circle unexplained left out
+    (:func:`circle_verdict`; a still at a size it is judged at)."""
+    return initialise_from_paint(view, size, principal_point=principal_point, pitch=pitch, circles=detections.ellipses, lines=detections.lines, min_on_grass=ON_GRASS, min_on_lines=ON_LINES, min_sides=min_sides, refine_family=True, penalty_arcs=penalty_arcs, more_splits=more_splits, explain_circles=explain_circles)
+
+
+#: the least share of the detector's closed-circle ellipse (the centre circle)
+#: that a still's camera must lay its markings on (:func:`circle_verdict`)
+CIRCLE_EXPLAINED = 0.5
+#: how near a projected marking an ellipse point must be to be explained
+#: (a share of the frame's width; at least 2.5 px)
+CIRCLE_REACH = 0.005
+
+
+def circle_verdict(camera: Camera, ellipses, size, pitch: PitchModel) -> str | None:
+    """Why a still's camera is refused for leaving the detector's centre
+    circle unexplained (None: it is not).
+
+    The detector keeps an ellipse of kind "circle" only where a closed
+    ring of line pixels fits one (:class:`arstream.detect.results.DetectedEllipse`);
+    on the real reference frames every one is the centre circle and the
+    reference camera lays a marking on all of its points (every ellipse the
+    detector finds on the 27 reference frames under the clean, 480p,
+    dimmed and soft variants of ``bench/real_graphics.py``: 1.00). A
+    camera made from the frame's straight lines alone can instead lay
+    another part of the pitch on them and still pass the line-support test:
+    ``israel_league_wide`` frame 0 at 960 x 540 was registered with a
+    penalty area drawn across the centre circle (line support 0.82),
+    about 64 m from the right camera. Such a camera is refused where less
+    than :data:`CIRCLE_EXPLAINED` of a circle ellipse's points lie within
+    :data:`CIRCLE_REACH` times the width (at least 2.5 px) of a projected
+    marking (:func:`arstream.solve.explained_share`).
+
+    Parameters
+    ----------
+    camera : Camera of the frame (frame pixels)
+    ellipses : sequence of DetectedEllipse, the detector's (frame pixels)
+    size : (width, height) of the frame, pixels
+    pitch : PitchModel the camera was made at
+
+    Returns
+    -------
+    str (the reason) or None
+    """
+    W = size[0]
+    circles = [e for e in ellipses or () if e.kind == "circle" and len(e.points) >= 6]
+    if not circles:
+        return None
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    for e in circles:
+        share = explained_share(camera, LineIndex(e.points), size, model, radius=max(2.5, CIRCLE_REACH * W))
+        if share < CIRCLE_EXPLAINED:
+            return f"its markings miss the centre circle's ellipse ({share:.0%} of its points explained)"
+    return None
 
 
 def paint_verdict(camera: Camera, support: float | None, spread: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7, min_sides: float | None = None) -> str | None:
@@ -668,7 +726,7 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
     return None
 
 
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False, workers: int = 1) -> CameraEstimate:
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False, workers: int = 1, explain_circle: bool = True) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
     enough line support). Returns a "lost" estimate when nothing fits.
@@ -698,13 +756,28 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     size is in ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
     The scan's sizes are registered on up to ``workers`` processes
     (:func:`size_from_scan`; default 1: here, one after another).
+
+    ``explain_circle`` (with the frame): a camera that leaves the detector's
+    centre circle unexplained (:func:`circle_verdict`) is no hypothesis of
+    the paint's and no result ("lost", the reason says so). With
+    ``estimate_size`` the result is judged so at the size it was made at,
+    not the camera at ``pitch`` that a scan of sizes starts from: at a
+    pitch of another size that camera can miss the circle where the
+    scan's camera lays it right (a realistic synthetic still of a
+    109.5 x 71.5 m pitch, ``real-wide`` 81 frame 0: 31 % of the circle
+    explained at 105 x 68, registered 1.2 px off at 110 x 72).
     """
     W, H = size
     pitch = pitch or PitchModel()
     pp = np.array(principal_point if principal_point is not None else ((W - 1) / 2, (H - 1) / 2), dtype=np.float64)
     if estimate_size and image is not None:
-        est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support)
-        return _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
+        # (the default's camera is the scan's baseline: at a pitch of another
+        # size it can miss the circle, and the scan's sizes then find the camera)
+        est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circle=False)
+        est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
+        if est.camera is not None and explain_circle and (why := circle_verdict(est.camera, detections.ellipses, size, est.info["pitch"].model(pitch.line_width))) is not None:
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (line support {est.info.get('support') or 0.0:.2f}, {why})")
+        return est
     model = ModelSamples.from_pitch(pitch, 0.5)
     if detections is None or not getattr(detections, "pitch_visible", True) or len(detections.line_points) < 30:
         return CameraEstimate.lost(0, 0.0, reason=no_pitch_reason(detections, image))
@@ -739,7 +812,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         if r is None or not backed(r.camera, sup, spread) or sup < PAINT_CHECK:
             # (a backed camera from the detector's lines that still leaves much of
             # the paint off its markings: the paint's own may do better)
-            rp, _ = still_paint_camera(view, size, principal_point=pp, pitch=pitch, detections=detections)
+            rp, _ = still_paint_camera(view, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circle)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 # (by the paint initialiser's own measure: a camera that lays a
@@ -752,7 +825,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             # be fainter than that; the paint again at FAINT_CONTRAST, its camera
             # judged on the same white-paint mask and held to PAINT_CHECK)
             faint = paint_view(image, detections, contrast=FAINT_CONTRAST, bright=view.bright)
-            rp, _ = still_paint_camera(faint, size, principal_point=pp, pitch=pitch, detections=detections)
+            rp, _ = still_paint_camera(faint, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circle)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 if sp is not None and sp >= PAINT_CHECK and backed(rp.camera, sp, spread_p):
@@ -765,7 +838,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 sn, spread_n = backed_support(rn.camera, view.bright, pitch)
                 if sn is not None and backed(rn.camera, sn, spread_n) and paint_score(rn.camera, sn, view, size, model) > paint_score(r.camera, sup, view, size, model) + PAINT_SCORE_MARGIN:
                     r, sup, spread = rn, sn, spread_n
-        if r is not None and (why := unbacked(r.camera, sup, spread)) is not None:
+        if r is not None and (why := unbacked(r.camera, sup, spread) or (circle_verdict(r.camera, detections.ellipses, size, pitch) if explain_circle else None)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         seen = "" if image is None else f" (the paint shows {paint_seen(view, detections)})"
@@ -969,6 +1042,7 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     sizes = still_scan_sizes(pitch)
     jobs = [(detections, size, principal_point, PitchModel(L, W, pitch.line_width), estimate_k1, image, min_support) for L, W in sizes[1:]]
     found = map_in_processes(_register_at, jobs, workers=workers, preload=("arstream.initialise",))
+    est = _default_from_scan(est, found, detections, size, view, pitch, estimate_k1, min_support)
     ests = [est, *found]
     models = [est.info["pitch"].model(pitch.line_width)] + [PitchModel(*sz, pitch.line_width) for sz in sizes[1:]]
     scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip(ests, models)], size_dispute([e.camera for e in ests], models, luma))
@@ -979,6 +1053,49 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     if got.source == "default":
         got = PitchSize(*scan.size, source="scanned", views=1)
     return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
+
+
+def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detections, size, view: PaintView, pitch: PitchModel, estimate_k1: bool, min_support: float) -> CameraEstimate:
+    """:func:`size_from_scan`'s default entry (``est``, made at ``pitch``)
+    made again from the scan's cameras at the other sizes (``found``), where
+    that gives a camera the paint backs better.
+
+    The paint initialiser keeps the best few of its line hypotheses before
+    refining them, and which pairs of the frame's lines make the right
+    camera's start can depend on the pitch's size: ``israel_league_wide``
+    frame 400 at 960 x 540 was registered at 105 x 68 with a camera laid
+    along the running track (line support 0.70, 299 px off its reference),
+    while its camera at every other size of the grid was right (0.97-0.99),
+    and the size rule (point for point, :func:`arstream.pitch_size.choose_still_size`)
+    kept the default's. The other sizes' cameras, refined at ``pitch`` and
+    judged as the paint's hypotheses are (:func:`_best_from_paint`, with the
+    still's tests of grass, lines, the areas' sides and the centre circle),
+    replace ``est``'s camera when the paint backs the best of them
+    (:func:`paint_verdict`) and it scores more by :data:`PAINT_SCORE_MARGIN`
+    (:func:`paint_score`, the rule between a still's cameras). The size
+    estimated from that view (:func:`size_from_view`) goes with it.
+
+    Returns ``est`` or the estimate made again (``info``: its support and
+    size).
+    """
+    seeds = [e.camera for e in found if e.camera is not None]
+    if not seeds or est.camera is None:
+        return est
+    made_at = est.info["pitch"].model(pitch.line_width)
+    if (made_at.length, made_at.width) != (pitch.length, pitch.width):
+        return est  # (its own view's size: not the grid's default to make again)
+    rb, sb = _best_from_paint(seeds, view, size, pitch, estimate_k1, ON_GRASS, ON_LINES, MIN_SIDES, circles=getattr(detections, "ellipses", ()) or ())
+    if rb is None:
+        return est
+    sb, spread = backed_support(rb.camera, view.bright, pitch)
+    if paint_verdict(rb.camera, sb, spread, view, size, pitch, min_support, MIN_SIDES) is not None:
+        return est
+    model = ModelSamples.from_pitch(pitch, 0.5)
+    old = est.info.get("support")
+    if paint_score(rb.camera, sb, view, size, model) <= paint_score(est.camera, old or 0.0, view, size, model) + PAINT_SCORE_MARGIN:
+        return est
+    camera, got, sup = size_from_view(rb.camera, sb, view, size, pitch, min_support)
+    return CameraEstimate(est.frame, est.pts, "ok", camera, rb.confidence, {**est.info, "rms": rb.rms, "n_visible": rb.n_visible, "support": sup, "pitch": got})
 
 
 def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: PitchModel | None = None, workers: int = 1) -> CameraEstimate:

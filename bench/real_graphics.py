@@ -8,7 +8,9 @@ the way broadcasts do: a lower-third caption, a score box with a channel
 logo, an opaque bar over the bottom quarter or third (a ticker, a replay
 wipe), letterbox and pillarbox bars, and the frame scaled to 854 x 480 and
 saved as a strong JPEG; and two looks of the picture itself, an evening
-match (darker, flatter) and a soft picture (a 1.2 px blur). These hide or
+match (darker, flatter) and a soft picture (a 1.2 px blur); and the frame at
+other resolutions (scaled by 0.75 and by 1.5: a 1280 x 720 frame at 960 x 540
+and at 1920 x 1080). These hide or
 fade markings but do not move them, so the reference camera is still the
 truth (scaled with the frame). Two variants move the markings, with the
 reference camera moved with the picture: the frame flipped left to right
@@ -150,6 +152,19 @@ def soft(img: np.ndarray) -> np.ndarray:
     return cv2.GaussianBlur(img, (0, 0), 1.2)
 
 
+def rescaled(scale: float):
+    """The frame resized by ``scale`` (area averaging down, bicubic up): the
+    same view broadcast or grabbed at another resolution (0.75: 1280 x 720
+    -> 960 x 540; 1.5: 1280 x 720 -> 1920 x 1080)."""
+
+    def f(img: np.ndarray) -> np.ndarray:
+        H, W = img.shape[:2]
+        size = (int(round(W * scale / 2)) * 2, int(round(H * scale / 2)) * 2)
+        return cv2.resize(img, size, interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_CUBIC)
+
+    return f
+
+
 def mirrored(cam: Camera, W: int) -> Camera:
     """The camera of the frame flipped left to right (pixel ``u`` goes to ``W - 1 - u``):
     the view of the pitch mirrored in its halfway line's normal (X -> -X), which the
@@ -209,6 +224,8 @@ VARIANTS = {
     "480p-jpeg35": small_jpeg,
     "dim": dim,
     "soft-1.2": soft,
+    "scale-0.75": rescaled(0.75),
+    "scale-1.5": rescaled(1.5),
     **{k: v[0] for k, v in GEOMETRIC.items()},
 }
 
