@@ -391,7 +391,7 @@ def _best_from_paint(cands: list[Camera], view: PaintView, size, pitch: PitchMod
         need = MIN_ALONG if along_from is not None and j >= along_from else min_sides
         if need is not None and (a := along_support(rf.camera, view.bright, pitch)) is not None and a < need:
             continue  # slid along the lines across the pitch, the areas' sides off their paint
-        if circles and circle_verdict(rf.camera, circles, size, pitch) is not None:
+        if circles and circle_verdict(rf.camera, circles, size, pitch, model) is not None:
             continue  # another part of the pitch laid over the centre circle
         score = paint_score(rf.camera, s0, view, size, model)
         if score > best_score:
@@ -655,7 +655,7 @@ CIRCLE_EXPLAINED = 0.5
 CIRCLE_REACH = 0.005
 
 
-def circle_verdict(camera: Camera, ellipses, size, pitch: PitchModel) -> str | None:
+def circle_verdict(camera: Camera, ellipses, size, pitch: PitchModel, model: ModelSamples | None = None) -> str | None:
     """Why a still's camera is refused for leaving the detector's centre
     circle unexplained (None: it is not).
 
@@ -680,6 +680,7 @@ def circle_verdict(camera: Camera, ellipses, size, pitch: PitchModel) -> str | N
     ellipses : sequence of DetectedEllipse, the detector's (frame pixels)
     size : (width, height) of the frame, pixels
     pitch : PitchModel the camera was made at
+    model : its ModelSamples at 0.5 m, where the caller has them (else made here)
 
     Returns
     -------
@@ -689,7 +690,7 @@ def circle_verdict(camera: Camera, ellipses, size, pitch: PitchModel) -> str | N
     circles = [e for e in ellipses or () if e.kind == "circle" and len(e.points) >= 6]
     if not circles:
         return None
-    model = ModelSamples.from_pitch(pitch, 0.5)
+    model = model or ModelSamples.from_pitch(pitch, 0.5)
     for e in circles:
         share = explained_share(camera, LineIndex(e.points), size, model, radius=max(2.5, CIRCLE_REACH * W))
         if share < CIRCLE_EXPLAINED:
@@ -726,7 +727,7 @@ def paint_verdict(camera: Camera, support: float | None, spread: float, view: Pa
     return None
 
 
-def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False, workers: int = 1, explain_circle: bool = True) -> CameraEstimate:
+def register_frame(detections, size, *, principal_point=None, pitch: PitchModel | None = None, estimate_k1: bool = True, image: np.ndarray | None = None, min_support: float = 0.7, estimate_size: bool = False, workers: int = 1, explain_circles: bool = True) -> CameraEstimate:
     """The camera of a single still (no temporal help): initialise from the centre
     circle or from line correspondences, then refine (with k1 when the view has
     enough line support). Returns a "lost" estimate when nothing fits.
@@ -757,7 +758,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     The scan's sizes are registered on up to ``workers`` processes
     (:func:`size_from_scan`; default 1: here, one after another).
 
-    ``explain_circle`` (with the frame): a camera that leaves the detector's
+    ``explain_circles`` (with the frame): a camera that leaves the detector's
     centre circle unexplained (:func:`circle_verdict`) is no hypothesis of
     the paint's and no result ("lost", the reason says so). With
     ``estimate_size`` the result is judged so at the size it was made at,
@@ -773,9 +774,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     if estimate_size and image is not None:
         # (the default's camera is the scan's baseline: at a pitch of another
         # size it can miss the circle, and the scan's sizes then find the camera)
-        est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circle=False)
+        est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circles=False)
         est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
-        if est.camera is not None and explain_circle and (why := circle_verdict(est.camera, detections.ellipses, size, est.info["pitch"].model(pitch.line_width))) is not None:
+        if est.camera is not None and explain_circles and (why := circle_verdict(est.camera, detections.ellipses, size, est.info["pitch"].model(pitch.line_width))) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (line support {est.info.get('support') or 0.0:.2f}, {why})")
         return est
     model = ModelSamples.from_pitch(pitch, 0.5)
@@ -812,7 +813,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         if r is None or not backed(r.camera, sup, spread) or sup < PAINT_CHECK:
             # (a backed camera from the detector's lines that still leaves much of
             # the paint off its markings: the paint's own may do better)
-            rp, _ = still_paint_camera(view, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circle)
+            rp, _ = still_paint_camera(view, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circles)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 # (by the paint initialiser's own measure: a camera that lays a
@@ -825,7 +826,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             # be fainter than that; the paint again at FAINT_CONTRAST, its camera
             # judged on the same white-paint mask and held to PAINT_CHECK)
             faint = paint_view(image, detections, contrast=FAINT_CONTRAST, bright=view.bright)
-            rp, _ = still_paint_camera(faint, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circle)
+            rp, _ = still_paint_camera(faint, size, principal_point=pp, pitch=pitch, detections=detections, explain_circles=explain_circles)
             if rp is not None:
                 sp, spread_p = backed_support(rp.camera, view.bright, pitch)
                 if sp is not None and sp >= PAINT_CHECK and backed(rp.camera, sp, spread_p):
@@ -838,7 +839,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 sn, spread_n = backed_support(rn.camera, view.bright, pitch)
                 if sn is not None and backed(rn.camera, sn, spread_n) and paint_score(rn.camera, sn, view, size, model) > paint_score(r.camera, sup, view, size, model) + PAINT_SCORE_MARGIN:
                     r, sup, spread = rn, sn, spread_n
-        if r is not None and (why := unbacked(r.camera, sup, spread) or (circle_verdict(r.camera, detections.ellipses, size, pitch) if explain_circle else None)) is not None:
+        if r is not None and (why := unbacked(r.camera, sup, spread) or (circle_verdict(r.camera, detections.ellipses, size, pitch, model) if explain_circles else None)) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
     if r is None:
         seen = "" if image is None else f" (the paint shows {paint_seen(view, detections)})"
@@ -1079,12 +1080,12 @@ def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detecti
     size).
     """
     seeds = [e.camera for e in found if e.camera is not None]
-    if not seeds or est.camera is None:
+    if not seeds:
         return est
     made_at = est.info["pitch"].model(pitch.line_width)
     if (made_at.length, made_at.width) != (pitch.length, pitch.width):
         return est  # (its own view's size: not the grid's default to make again)
-    rb, sb = _best_from_paint(seeds, view, size, pitch, estimate_k1, ON_GRASS, ON_LINES, MIN_SIDES, circles=getattr(detections, "ellipses", ()) or ())
+    rb, sb = _best_from_paint(seeds, view, size, pitch, estimate_k1, ON_GRASS, ON_LINES, MIN_SIDES, circles=detections.ellipses)
     if rb is None:
         return est
     sb, spread = backed_support(rb.camera, view.bright, pitch)
