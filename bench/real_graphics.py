@@ -8,7 +8,8 @@ the way broadcasts do: a lower-third caption, a score box with a channel
 logo, an opaque bar over the bottom quarter or third (a ticker, a replay
 wipe), letterbox and pillarbox bars, and the frame scaled to 854 x 480 and
 saved as a strong JPEG; and two looks of the picture itself, an evening
-match (darker, flatter) and a soft picture (a 1.2 px blur); and the frame at
+match (darker, flatter), a soft picture (a 1.2 px blur) and a stand's
+shadow across the pitch (a sunny afternoon); and the frame at
 other resolutions (scaled by 0.75 and by 1.5: a 1280 x 720 frame at 960 x 540
 and at 1920 x 1080). These hide or
 fade markings but do not move them, so the reference camera is still the
@@ -152,6 +153,20 @@ def soft(img: np.ndarray) -> np.ndarray:
     return cv2.GaussianBlur(img, (0, 0), 1.2)
 
 
+def shadow(img: np.ndarray) -> np.ndarray:
+    """A stand's shadow across the pitch on a sunny afternoon: the frame above
+    a slanted line (from 55 % of the height at the left edge to 30 % at the
+    right) lit by the sky alone (red and green scaled by 0.45, blue by 0.55),
+    its edge a 3 px penumbra. The shadow's edge is a long straight step of
+    brightness on the grass, as bright on one side as a painted line is."""
+    H, W = img.shape[:2]
+    yy, xx = np.mgrid[0:H, 0:W].astype(np.float32)
+    edge = 0.55 * H + (0.30 - 0.55) * H * xx / max(W - 1, 1)
+    lit = np.clip((yy - edge) / 3.0 + 0.5, 0.0, 1.0)[..., None]  # 1 in the sun, 0 in the shade
+    shade = np.array([0.55, 0.45, 0.45], np.float32)  # B, G, R
+    return np.clip(img.astype(np.float32) * (shade + (1.0 - shade) * lit), 0, 255).astype(np.uint8)
+
+
 def rescaled(scale: float):
     """The frame resized by ``scale`` (area averaging down, bicubic up): the
     same view broadcast or grabbed at another resolution (0.75: 1280 x 720
@@ -224,6 +239,7 @@ VARIANTS = {
     "480p-jpeg35": small_jpeg,
     "dim": dim,
     "soft-1.2": soft,
+    "shadow": shadow,
     "scale-0.75": rescaled(0.75),
     "scale-1.5": rescaled(1.5),
     **{k: v[0] for k, v in GEOMETRIC.items()},
