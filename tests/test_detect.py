@@ -688,6 +688,73 @@ def test_grass_luma_is_the_mean_of_the_grass_pixels_around_each_pixel():
     assert np.all(gl[:, 14:] == 77.0)
 
 
+def _shadowed_lines(seed: int = 0) -> tuple[np.ndarray, tuple]:
+    """A 640 x 360 frame of sunlit grass with four faint far lines (2 px wide,
+    28 levels above the grass in every channel), the upper two under a
+    stand's shadow (red and green 0.45, blue 0.55 of the sunlit level, a
+    slanted edge with a 3 px penumbra): (image, the lines' rows at x = 20)."""
+    rng = np.random.default_rng(seed)
+    H, W = 360, 640
+    img = np.empty((H, W, 3), np.float32)
+    img[:] = (55, 140, 70)
+    rows = (50, 90, 260, 300)
+    for y in rows:
+        cv2.line(img, (20, y), (620, y + 8), (83, 168, 98), 2)
+    img += rng.normal(0, 2, img.shape)
+    yy, xx = np.mgrid[0:H, 0:W].astype(np.float32)
+    lit = np.clip((yy - (150 - 40 * xx / (W - 1))) / 3 + 0.5, 0, 1)[..., None]
+    shade = np.array([0.55, 0.45, 0.45], np.float32)
+    return np.clip(img * (shade + (1 - shade) * lit), 0, 255).astype(np.uint8), rows
+
+
+def test_lines_in_a_stand_s_shadow_are_found_as_those_in_the_sun():
+    # a shadow across part of the pitch halves the paint's contrast there; a
+    # contrast threshold set from the whole frame's grass (mostly sunlit) left
+    # the shaded lines out entirely (0 % of their columns; the sunlit ones
+    # 39-42 %): asked of each line in its own grass's share, they are found
+    # (``shade``: on for a still, detect(); a clip's Detector leaves it off)
+    g, rows = _shadowed_lines()
+
+    def found(d):
+        P = d.line_points
+        out = []
+        for y in rows:
+            on = np.abs(P[:, 1] - (y + 8 * (P[:, 0] - 20) / 600)) < 2.0
+            out.append(len(np.unique(np.rint(P[on, 0]).astype(int))) / 600)
+        return out, P
+
+    (shaded, sunlit), P = np.reshape(found(detect(g))[0], (2, 2)), found(detect(g))[1]
+    assert min(sunlit) >= 0.3, (shaded, sunlit)
+    assert min(shaded) >= min(sunlit), (shaded, sunlit)
+    # and no line along the shadow's edge
+    edge = np.abs(P[:, 1] - (150 - 40 * P[:, 0] / 639)) < 4.0
+    assert edge.sum() <= 5, P[edge]
+    off, _ = found(Detector(640, 360).process(g))
+    assert max(off[:2]) == 0.0 and min(off[2:]) >= 0.3, off
+
+
+def test_a_contrast_grid_asks_each_part_of_the_frame_its_own_contrast():
+    # ridge_points with one contrast everywhere, and with a grid of contrasts:
+    # a line of contrast 10 is found where the grid asks 8 and not where it
+    # asks 12; a grid of one value is the scalar
+    from arstream.detect.ridges import ridge_points
+
+    g = np.full((120, 200), 100, np.uint8)
+    g[29:33, 10:190] = 110  # 4 px wide: smoothing keeps most of its 10 levels
+    g[89:93, 10:190] = 110
+    region = np.full(g.shape, 255, np.uint8)
+
+    def rows(**kw):
+        p = ridge_points(g, region, sigma=1.2, kernel=11, min_contrast=12.0, bufs={}, **kw).pts
+        return sorted({int(round(y)) for y in p[:, 1]})
+
+    assert rows() == []
+    assert rows(contrast_grid=np.full((1, 1), 12.0, np.float32)) == []
+    top_low = np.array([[8.0], [12.0]], np.float32)  # the upper half asks 8, the lower 12
+    got = rows(contrast_grid=top_low)
+    assert got and all(25 <= y <= 35 for y in got), got
+
+
 def test_the_kernels_warm_up_with_the_signatures_detection_uses():
     # numba compiles a kernel again for every new argument type signature (some
     # seconds each): the warm-up that every Detector starts must load exactly

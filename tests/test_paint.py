@@ -819,6 +819,35 @@ def test_a_pillarboxed_long_lens_penalty_view_is_not_slid_along_its_lines():
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 @pytest.mark.long
+@pytest.mark.parametrize("item, registered", [("artificial_turf_multisport 175", True), ("ucl_2009", False)])
+def test_a_still_under_a_stand_s_shadow_is_not_drawn_wrong(item, registered):
+    # bench/real_graphics.py's shadow variant: the frame above a slanted line
+    # lit by the sky alone. The turf clip's centre-circle view, its circle in
+    # the shade, was registered 3214 px off: the detector's contrast, set from
+    # the mostly sunlit grass, left the shaded circle out, and the paint's
+    # lines along the shadow's edge and another sport's lines made a camera
+    # at a line support of 0.75. Each line now asked its own grass's share
+    # (Detector's ``shade``, on for a still), the circle is found: within
+    # 5 px. The Champions League still (1.9 px unshaded) stays lost: the
+    # shadow's sunlit edge is a long straight line of the paint mask
+    # (docs/real-footage.md, "What does not work yet"): no camera passes,
+    # and none may be drawn wrong
+    from arstream.initialise import register_image
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    from real_graphics import PITCHES, items, shadow
+
+    (name, img, aspect, ref, pitch), = items([item])
+    given = PITCHES.get(name.split(" ")[0])
+    est = register_image(shadow(img), pixel_aspect=aspect, pitch=None if given is None else PitchModel(*given))
+    assert est.camera is not None or not registered, est.info
+    if est.camera is not None:  # (lost, or right: never a wrong camera)
+        size = img.shape[1::-1]
+        assert distance_1280(ref, est.camera, size, pitch, est.info["pitch"].model()) <= MAX_DISTANCE_1280
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
+@pytest.mark.long
 @pytest.mark.parametrize("variant", ["bar-33", "480p-jpeg35"])
 def test_a_degraded_long_lens_penalty_view_is_registered_at_its_own_size(variant):
     # israel_league_wide frame 175 with a bar over its lower third, and at

@@ -14,7 +14,11 @@ Pipeline (one :class:`Detector` per clip; :func:`detect` for a single image):
    luma plane at a working resolution (the frame shrunk by an integer
    factor: 640 px wide for 720p and 1080p), seeded by a white top-hat and
    checked for a two-sided contrast (stripes and shadow edges are one-sided
-   steps) and elongation (kits and the ball are blobs); a second pass at half
+   steps) and elongation (kits and the ball are blobs). For a still
+   (:func:`detect`, ``shade``) the contrast asked of a line is 12 % of its
+   own grass's luma, where that grass is darker than the frame's (a stand's
+   shadow across the pitch: the frame's threshold lost every line in it); a
+   second pass at half
    that resolution finds the wide lines (zoomed in, or smeared by a fast pan)
    where the fine pass found nothing, and a third on the frame squashed 4x
    sideways the near-vertical lines a fast pan smears into bands. A caller

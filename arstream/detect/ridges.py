@@ -65,6 +65,7 @@ def ridge_points(
     curvature_ratio: float = 0.1,
     band_width: float | None = None,
     grass_luma: np.ndarray | None = None,
+    contrast_grid: np.ndarray | None = None,
     bufs: dict,
 ) -> RidgePoints:
     """Sub-pixel ridge centres of bright thin lines.
@@ -76,6 +77,10 @@ def ridge_points(
     sigma : Gaussian scale of the Hessian (px); at least width / (2 sqrt 3)
     kernel : top-hat kernel size (odd, px); wider than any line
     min_contrast : grey levels a line must stand above the grass on both sides
+    contrast_grid : (ch, cw) float32, optional: ``min_contrast`` where it
+        varies over the image (lower where the grass is in shadow:
+        :class:`arstream.detect.Detector`'s ``shade``), on a coarser grid
+        spanning the same image; ``min_contrast`` is then unused
     curvature_ratio : least |l1| / contrast: flatter ridges are plateaus of lines
         too wide for ``sigma``
     band_width : profile width (px, by the curvature at the centre) from which a
@@ -115,13 +120,19 @@ def ridge_points(
     # candidates: top-hat above 0.9 of the contrast, in the region (OpenCV), then those
     # that are a maximum across x or y, and their centres: one compiled loop
     # (kernels.ridge_scan, which skips 8 pixels without a candidate at a time)
-    thr = max(min_contrast * 0.9, 2.0)
     cand = bufs["cand"]
     cv = cand[:, :w]
-    cv2.threshold(th, min(int(np.floor(thr)), 255), 255, cv2.THRESH_BINARY, dst=cv)  # th > thr for integer th
+    if contrast_grid is None:
+        thr = max(min_contrast * 0.9, 2.0)
+        cv2.threshold(th, min(int(np.floor(thr)), 255), 255, cv2.THRESH_BINARY, dst=cv)  # th > thr for integer th
+        grid = np.full((1, 1), min_contrast, np.float32)
+    else:
+        grid = np.ascontiguousarray(contrast_grid, np.float32)
+        floor = np.floor(np.clip(np.maximum(grid * 0.9, 2.0), 0, 255)).astype(np.uint8)
+        cv2.compare(th, cv2.resize(floor, (w, h), interpolation=cv2.INTER_NEAREST), cv2.CMP_GT, dst=cv)
     cv2.bitwise_and(cv, region, dst=cv)
     gl = _NEVER_THIN if grass_luma is None else np.ascontiguousarray(grass_luma, np.float32)
-    pts, nrm, aux, n_cand = ridge_scan(th, cand, cand.view(np.uint64), B, gray, gl, float(sigma), float(min_contrast), 0.5 * kernel, float(curvature_ratio))
+    pts, nrm, aux, n_cand = ridge_scan(th, cand, cand.view(np.uint64), B, gray, gl, float(sigma), grid, 0.5 * kernel, float(curvature_ratio))
     c, b1, b2, l1 = aux.T
     contrast = c - np.maximum(b1, b2)
     # a band wider than the scale (a line smeared by a pan): on a step of the grass (a

@@ -24,7 +24,7 @@ def _grow2(a, n):
 
 
 @nb.njit(**_JIT)
-def ridge_scan(th, cand, words, B, G, grass, sigma, min_contrast, d, curvature_ratio):
+def ridge_scan(th, cand, words, B, G, grass, sigma, contrast_grid, d, curvature_ratio):
     """Sub-pixel ridge centres at the candidate pixels of a top-hat image.
 
     A candidate is a pixel where ``cand`` is non-zero (the caller's mask of
@@ -68,7 +68,9 @@ def ridge_scan(th, cand, words, B, G, grass, sigma, min_contrast, d, curvature_r
     grass : (gh, gw) float32 the grass's local luma, on a grid that spans the
         image (pixel (x, y) reads cell (x gw / w, y gh / h), truncated)
     sigma : float, the scale of ``B``'s Gaussian (px)
-    min_contrast, d, curvature_ratio : float
+    contrast_grid : (ch, cw) float32, ``min_contrast`` on a grid that spans
+        the image, read as ``grass`` is (a (1, 1) grid: one contrast for all)
+    d, curvature_ratio : float
 
     Returns
     -------
@@ -95,6 +97,9 @@ def ridge_scan(th, cand, words, B, G, grass, sigma, min_contrast, d, curvature_r
     gh, gw = grass.shape
     gsx = gw / w
     gsy = gh / h
+    ch, cw = contrast_grid.shape
+    csx = cw / w
+    csy = ch / h
     nw = words.shape[1]
     for y in range(2, h - 2):
         trow = th[y]
@@ -110,6 +115,7 @@ def ridge_scan(th, cand, words, B, G, grass, sigma, min_contrast, d, curvature_r
                 if not ((t >= trow[x - 1] and t >= trow[x + 1]) or (t >= th[y - 1, x] and t >= th[y + 1, x])):
                     continue
                 ncand += 1
+                min_contrast = contrast_grid[min(int(y * csy), ch - 1), min(int(x * csx), cw - 1)]
                 c = B[y, x]
                 xp = B[y, x + 1]
                 xm = B[y, x - 1]
@@ -278,5 +284,5 @@ def warm_up() -> None:
     th = np.zeros((8, 8), np.uint8)
     B = np.zeros((8, 8), np.float32)
     p = np.zeros((1, 2))
-    ridge_scan(th, th, th.view(np.uint64), B, th, B, 1.2, 5.0, 5.5, 0.1)
+    ridge_scan(th, th, th.view(np.uint64), B, th, B, 1.2, np.full((1, 1), 5.0, np.float32), 5.5, 0.1)
     band_scan(B, p, np.ones((1, 2)), 6)
