@@ -74,7 +74,7 @@ class Detector:
         ``hard`` preset, with its stadium shadow, 0.37 -> 0.57 px median,
         99.6 -> 94.4 % within 5 px; ``israel_league_wide``'s size choice
         tipped to 104 x 72.6 m), which is not yet tuned to it
-        (bench/README.md "Stop 85").
+        (bench/README.md "Stop 85", "Stop 86").
     """
 
     def __init__(
