@@ -14,7 +14,9 @@ This module is the initialiser's second look at such frames:
   segments (OpenCV) merged when collinear, each refitted (Huber) to the mask
   pixels near it and kept as its longest run with gaps under 4 % of the
   frame's width (a player on the line leaves a gap; a chain of players in a
-  row is no line: most of a line's length must be covered).
+  row is no line: most of a line's length must be covered). Given the frame,
+  a line on the grass must be brighter than the grass on both of its sides
+  (:func:`bright_across`): the sunlit edge of a stand's shadow is a step.
 * :func:`paint_arcs` — penalty arcs: a curve of paint that leaves a long
   straight line (the penalty area's front line) and comes back to it, fitted
   by an ellipse (the ridge detector's ellipse search asks for more of the
@@ -35,7 +37,7 @@ from geometry.lines import hartley_normalization
 
 from .results import DetectedEllipse, DetectedLine, PaintArc
 
-__all__ = ["paint_mask", "paint_lines", "paint_arcs", "PAINT_CONTRAST", "PAINT_BOX"]
+__all__ = ["paint_mask", "paint_lines", "paint_arcs", "grass_beside", "bright_across", "PAINT_CONTRAST", "PAINT_BOX", "MIN_RIDGE_SHARE"]
 
 # the line-support test's neighbourhood and contrast (DESIGN.md section 5b):
 # brighter than the 15 x 15 box mean by more than 12 levels
@@ -137,6 +139,65 @@ def grass_beside(lines: list[DetectedLine], image: np.ndarray, *, samples: int =
     return out
 
 
+#: pixels (at 1280 wide, scaled with the width) on either side of a line at
+#: which :func:`bright_across` compares its luma: a far line's one or two
+#: pixels up to a near line's eight
+ACROSS_OFFSETS = (2.0, 4.0, 7.0)
+#: levels by which a line's luma must rise above both sides (:func:`bright_across`)
+ACROSS_RISE = 3.0
+#: least share of a line's length that is a bright ridge (:func:`bright_across`)
+#: for a line with grass on both sides to be kept by :func:`paint_lines`
+MIN_RIDGE_SHARE = 0.25
+
+
+def bright_across(lines: list[DetectedLine], image: np.ndarray, *, samples: int = 64) -> np.ndarray:
+    """(N,) float: for each line, the share of its length where it is a bright
+    ridge: its luma (smoothed by a 1 px Gaussian; at its crest, the brightest
+    pixel within 2 px across it, both at 1280 wide) above that on *both*
+    sides at one of :data:`ACROSS_OFFSETS`, by more than :data:`ACROSS_RISE`
+    levels. ``lines``: DetectedLine in the frame's pixels; ``image``: (H, W, 3)
+    uint8 BGR; ``samples`` points along each line.
+
+    A painted line is brighter than the grass on both of its sides. The
+    sunlit side of a stand's shadow across the pitch is brighter than its
+    box mean in every channel (:func:`paint_mask`'s test) and makes a long
+    straight line of the paint mask, but it is not brighter than the sunlit
+    grass beyond it: a step, not a ridge (bench/README.md "Stop 87")."""
+    H, W = image.shape[:2]
+    luma = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (0, 0), 1.0).astype(np.float32)
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    offs = [max(1.0, d * W / 1280) for d in ACROSS_OFFSETS]
+    reach = max(1, int(round(2 * W / 1280)))
+
+    def at(q):
+        """luma at the points q (K, 2) (nearest pixel), NaN outside the frame"""
+        q = np.rint(q).astype(np.int64)
+        ok = (q[:, 0] >= 0) & (q[:, 0] < W) & (q[:, 1] >= 0) & (q[:, 1] < H)
+        v = np.full(len(q), np.nan, np.float32)
+        v[ok] = luma[q[ok, 1], q[ok, 0]]
+        return v
+
+    out = np.zeros(len(lines))
+    for i, dl in enumerate(lines):
+        n = dl.line[:2] / np.hypot(*dl.line[:2])
+        Q = (1 - t) * dl.endpoints[0] + t * dl.endpoints[1]
+        # the line's brightest pixel across it, within 2 px (a fitted line is a
+        # pixel or two off a blurred line's crest), and the sides from there
+        ks = np.arange(-reach, reach + 1)
+        across = np.stack([at(Q + k * n) for k in ks])
+        with np.errstate(invalid="ignore"):
+            best = np.nanargmax(np.where(np.isnan(across), -np.inf, across), axis=0)
+        c = across[best, np.arange(samples)]
+        crest = Q + ks[best][:, None] * n
+        ridge = np.zeros(samples, bool)
+        for d in offs:
+            side = np.fmax(at(crest + d * n), at(crest - d * n))
+            with np.errstate(invalid="ignore"):
+                ridge |= c - side > ACROSS_RISE
+        out[i] = ridge.mean()
+    return out
+
+
 #: the last frames' lines and penalty arcs (:func:`paint_lines`, :func:`paint_arcs`)
 #: by their masks' and frames' content: a scan asks for a frame's at each
 #: pitch size it tries (:mod:`arstream.memo`)
@@ -153,7 +214,10 @@ def paint_lines(mask: np.ndarray, image: np.ndarray | None = None, *, min_length
     image : (H, W, 3) uint8 BGR frame, optional: lines with grass on both
         sides along at least half their length (:func:`grass_beside`) come
         first, edges with grass on one side only (the boards' lower edge, or a
-        far touchline right below them) after them
+        far touchline right below them) after them; a line with grass on both
+        sides that is a bright ridge along less than :data:`MIN_RIDGE_SHARE`
+        of its length (:func:`bright_across`: a shadow's sunlit edge across
+        the pitch, a step of brightness) is left out
     min_length : shortest line (frame pixels); default 4 % of the width
     max_lines : most lines returned (the best covered first)
     work_width : the mask is max-pooled to at most about this width first
@@ -235,6 +299,10 @@ def _paint_lines(mask: np.ndarray, image: np.ndarray | None, min_length: float |
         )
     if image is not None and lines:
         both = grass_beside(lines, image)
+        # a line with grass on both sides that is nowhere brighter than both
+        # (a shadow's sunlit edge across the pitch) is no paint
+        step = (both >= 0.5) & (bright_across(lines, image) < MIN_RIDGE_SHARE)
+        lines, both = [dl for dl, s in zip(lines, step) if not s], both[~step]
         lines = [lines[k] for k in np.argsort(both < 0.5, kind="stable")]
     return lines[:max_lines]
 
