@@ -30,7 +30,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from arstream.imaging import pooled
+from arstream.imaging import pooled, sample_bilinear
 from arstream.memo import ContentMemo, content_key
 from geometry.conics import conic_from_ellipse, ellipse_from_conic, intersect_line_conic, normalize_conic, refine_ellipse, sampson_distance
 from geometry.lines import hartley_normalization
@@ -163,39 +163,31 @@ def bright_across(lines: list[DetectedLine], image: np.ndarray, *, samples: int 
     box mean in every channel (:func:`paint_mask`'s test) and makes a long
     straight line of the paint mask, but it is not brighter than the sunlit
     grass beyond it: a step, not a ridge (bench/README.md "Stop 87")."""
-    H, W = image.shape[:2]
+    if not lines:
+        return np.zeros(0)
+    W = image.shape[1]
     luma = cv2.GaussianBlur(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), (0, 0), 1.0).astype(np.float32)
-    t = np.linspace(0.0, 1.0, samples)[:, None]
-    offs = [max(1.0, d * W / 1280) for d in ACROSS_OFFSETS]
-    reach = max(1, int(round(2 * W / 1280)))
 
     def at(q):
-        """luma at the points q (K, 2) (nearest pixel), NaN outside the frame"""
-        q = np.rint(q).astype(np.int64)
-        ok = (q[:, 0] >= 0) & (q[:, 0] < W) & (q[:, 1] >= 0) & (q[:, 1] < H)
-        v = np.full(len(q), np.nan, np.float32)
-        v[ok] = luma[q[ok, 1], q[ok, 0]]
-        return v
+        """luma at the points q (..., 2), nearest pixel (0 outside the frame)"""
+        return sample_bilinear(luma, np.rint(q))
 
-    out = np.zeros(len(lines))
-    for i, dl in enumerate(lines):
-        n = dl.line[:2] / np.hypot(*dl.line[:2])
-        Q = (1 - t) * dl.endpoints[0] + t * dl.endpoints[1]
-        # the line's brightest pixel across it, within 2 px (a fitted line is a
-        # pixel or two off a blurred line's crest), and the sides from there
-        ks = np.arange(-reach, reach + 1)
-        across = np.stack([at(Q + k * n) for k in ks])
-        with np.errstate(invalid="ignore"):
-            best = np.nanargmax(np.where(np.isnan(across), -np.inf, across), axis=0)
-        c = across[best, np.arange(samples)]
-        crest = Q + ks[best][:, None] * n
-        ridge = np.zeros(samples, bool)
-        for d in offs:
-            side = np.fmax(at(crest + d * n), at(crest - d * n))
-            with np.errstate(invalid="ignore"):
-                ridge |= c - side > ACROSS_RISE
-        out[i] = ridge.mean()
-    return out
+    t = np.linspace(0.0, 1.0, samples)[None, :, None]
+    ends = np.stack([dl.endpoints for dl in lines])  # (L, 2, 2)
+    Q = (1 - t) * ends[:, :1] + t * ends[:, 1:]  # (L, S, 2)
+    n = np.stack([dl.line[:2] / np.hypot(*dl.line[:2]) for dl in lines])[:, None]  # (L, 1, 2)
+    # the line's brightest pixel across it, within 2 px (a fitted line is a
+    # pixel or two off a blurred line's crest), and the sides from there
+    reach = max(1, int(round(2 * W / 1280)))
+    ks = np.arange(-reach, reach + 1)
+    across = at(Q[None] + ks[:, None, None, None] * n[None])  # (K, L, S)
+    best = across.argmax(axis=0)
+    c = np.take_along_axis(across, best[None], axis=0)[0]
+    crest = Q + ks[best][..., None] * n
+    ridge = np.zeros(c.shape, bool)
+    for d in (max(1.0, d * W / 1280) for d in ACROSS_OFFSETS):
+        ridge |= c - np.maximum(at(crest + d * n), at(crest - d * n)) > ACROSS_RISE
+    return ridge.mean(axis=1)
 
 
 #: the last frames' lines and penalty arcs (:func:`paint_lines`, :func:`paint_arcs`)
