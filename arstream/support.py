@@ -232,7 +232,7 @@ def frame_mask(frame, reach: int = REACH) -> np.ndarray:
     return bright_mask(frame.gray, video_range=frame.yuv is not None, reach=reach)
 
 
-def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:
+def white_mask(image: np.ndarray, *, reach: int = REACH, threshold: float = THRESHOLD) -> np.ndarray:
     """:func:`bright_mask` of the darkest channel of a BGR frame: pixels near
     paint that is bright in blue, green *and* red.
 
@@ -247,12 +247,15 @@ def white_mask(image: np.ndarray, *, reach: int = REACH) -> np.ndarray:
     ----------
     image : (H, W, 3) uint8 BGR frame
     reach : as :func:`bright_mask`
+    threshold : as :func:`bright_mask` (levels; the line support's 12 unless a
+        still's second look at fainter paint asks for its own,
+        :data:`arstream.initialise.FAINT_CONTRAST`)
 
     Returns
     -------
     (H, W) bool
     """
-    return bright_mask(_darkest(image), reach=reach)
+    return bright_mask(_darkest(image), reach=reach, threshold=threshold)
 
 
 def _darkest(image: np.ndarray) -> np.ndarray:
