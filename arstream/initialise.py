@@ -757,7 +757,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     (:func:`initialise_from_paint`, for real broadcast frames) is tried, and
     of two backed cameras the one with the higher :func:`paint_score` (by
     more than :data:`PAINT_SCORE_MARGIN`) kept; when neither is backed, the paint is looked at
-    again at :data:`FAINT_CONTRAST` (its camera held to :data:`PAINT_CHECK`).
+    again at :data:`FAINT_CONTRAST` (its camera backed as any still's, and
+    held to :data:`PAINT_CHECK` on the usual paint or on the faint paint it
+    was found on: :func:`faint_support`).
     A camera the paint backs with less than :data:`PAINT_CHECK` is refined
     again from starts about it (:func:`nudged_camera`), whose best replaces
     it where the paint backs that one and it scores more by
