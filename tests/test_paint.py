@@ -942,26 +942,6 @@ def test_a_soft_long_lens_penalty_view_is_judged_on_the_paint_it_was_found_on(k)
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
-def test_the_second_look_s_chance_camera_is_not_drawn():
-    # the Premier League frame 00 at three quarters of its size (384 x 384,
-    # bench/real_graphics.py's scale-0.75): the second look at fainter
-    # paint finds a camera 645 px off that the usual white paint backs at
-    # 0.78 (above the 0.7 a still needs) and the faint paint at 0.88: under
-    # PAINT_CHECK on the paint it was found on, it is not drawn
-    from arstream.initialise import register_image
-
-    sys.path.insert(0, str(ROOT / "bench"))
-    from real_graphics import EPL_ASPECT, rescaled, scaled
-
-    img = cv2.imread(str(SHARED / "sequence-epl" / "frame_00.jpg"))
-    ref, pitch, _ = _reference("sequence_epl", 0)
-    small = rescaled(0.75)(img)
-    size = small.shape[1::-1]
-    est = register_image(small, pixel_aspect=EPL_ASPECT)
-    assert est.camera is None or distance_1280(scaled(ref, size[0] / img.shape[1], size[1] / img.shape[0]), est.camera, size, pitch, est.info["pitch"].model(), pixel_aspect=EPL_ASPECT) <= 20.0
-
-
-@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/real-broadcast is absent")
 def test_a_longer_lens_view_is_not_drawn_from_a_camera_twice_as_far():
     # israel_league_wide frame 375's centre enlarged 1.33 times (a longer
     # lens): the paint initialiser's best camera was twice as far with twice
