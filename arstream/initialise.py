@@ -767,7 +767,10 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     :data:`PAINT_SCORE_MARGIN`.
     With the frame, the detector's camera is
     judged by its paint even below INIT_ACCEPT (the ridge detector's recall
-    on a real frame). The support is in ``info["support"]``.
+    on a real frame). The support is in ``info["support"]``. A "lost"
+    estimate whose best camera the paint did not back carries that camera in
+    ``info["unbacked"]`` (frame pixels; no result, for
+    :func:`size_from_unbacked`).
 
     With ``estimate_size`` (and the frame), ``pitch`` is a prior, not a
     fact: the size the view constrains is estimated with the camera
@@ -776,7 +779,9 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
     ``pitch``'s camera poorly (:func:`size_from_scan`); the
     size is in ``info["pitch"]`` (a :class:`arstream.pitch_size.PitchSize`).
     The scan's sizes are registered on up to ``workers`` processes
-    (:func:`size_from_scan`; default 1: here, one after another).
+    (:func:`size_from_scan`; default 1: here, one after another). A still
+    lost at ``pitch`` is registered at the size its best unbacked camera's
+    view gives, where that is another (:func:`size_from_unbacked`).
 
     ``explain_circles`` (with the frame): a camera that leaves the detector's
     centre circle unexplained (:func:`circle_verdict`) is no hypothesis of
@@ -795,7 +800,11 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
         # (the default's camera is the scan's baseline: at a pitch of another
         # size it can miss the circle, and the scan's sizes then find the camera)
         est = register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circles=False)
-        est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
+        if est.camera is None:
+            # (lost at the default size: the size its best unbacked camera's view gives)
+            est = size_from_unbacked(est, detections, size, image, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
+        else:
+            est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
         if est.camera is not None and explain_circles and (why := circle_verdict(est.camera, detections.ellipses, size, est.info["pitch"].model(pitch.line_width))) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (line support {est.info.get('support') or 0.0:.2f}, {why})")
         return est
@@ -860,7 +869,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
                 if sn is not None and backed(rn.camera, sn, spread_n) and paint_score(rn.camera, sn, view, size, model) > paint_score(r.camera, sup, view, size, model) + PAINT_SCORE_MARGIN:
                     r, sup, spread = rn, sn, spread_n
         if r is not None and (why := unbacked(r.camera, sup, spread) or (circle_verdict(r.camera, detections.ellipses, size, pitch, model) if explain_circles else None)) is not None:
-            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})")
+            return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (best line support {0.0 if sup is None else sup:.2f}, {why})", unbacked=r.camera)
     if r is None:
         seen = "" if image is None else f" (the paint shows {paint_seen(view, detections)})"
         return CameraEstimate.lost(0, 0.0, reason=f"no camera fits the detected markings{seen}")
@@ -971,29 +980,100 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     return got.cameras[0], replace(got, cameras=()), sup
 
 
+def size_from_unbacked(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7) -> CameraEstimate:
+    """A still lost at ``pitch`` (the default, 105 x 68 m) registered at the
+    size its view gives, where that view fixes another size
+    (:func:`register_frame` with ``estimate_size``).
+
+    A wide view of a pitch of another size (a 105 x 74 m pitch with both
+    penalty areas and both touchlines in view) can leave every camera at
+    105 x 68 unbacked: fitted to the touchlines 6 m too close together, its
+    penalty areas miss their paint (15-34 % of their sides on paint,
+    ``real-wide`` 92 frames 75 and 125), and the scan of sizes never starts,
+    since it needs a camera to compare against. The best camera the paint
+    did not back (``est.info["unbacked"]``) is still near the view's: the
+    size the view constrains is estimated with it
+    (:func:`arstream.pitch_size.estimate_view_size`, ``pitch`` the prior),
+    and where that estimate is another size than ``pitch`` (beyond two of
+    its standard deviations along a dimension the view fixes,
+    :meth:`arstream.pitch_size.PitchSize.within_noise`) the still is
+    registered again at it, with every test a still's camera passes. Its
+    camera is kept only where its markings fit the frame at that size as a
+    still's must to need no scan (line support at least
+    :data:`arstream.pitch_size.SCAN_BELOW`): with no camera at ``pitch`` to
+    compare against, the size is the view's own measurement and its camera
+    must fit it well (a camera made at a size the view does not fix stays
+    unmade: the estimate keeps ``pitch`` along such a dimension).
+
+    Parameters
+    ----------
+    est : the "lost" CameraEstimate of :func:`register_frame` at ``pitch``
+        (``info["unbacked"]``: its best camera the paint did not back, frame
+        pixels; absent where no camera fitted the markings)
+    detections, size, image, pitch, principal_point, estimate_k1, min_support :
+        as :func:`register_frame`
+
+    Returns
+    -------
+    CameraEstimate: the registration at the estimated size (``info["pitch"]``
+    the :class:`arstream.pitch_size.PitchSize` "estimated", ``info["support"]``
+    its line support on white paint), or ``est``.
+    """
+    camera = est.info.get("unbacked")
+    if camera is None:
+        return est
+    view = paint_view(image, detections)
+    try:
+        got = estimate_view_size(camera, view.points, size, pitch)
+    except ValueError:
+        return est
+    if not got.cameras or got.within_noise((pitch.length, pitch.width)):
+        return est
+    other = got.model(pitch.line_width)
+    again = register_frame(detections, size, principal_point=principal_point, pitch=other, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circles=False)
+    if again.camera is None:
+        return est
+    fits = _line_support(again, bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)), other)
+    if fits is None or fits < SCAN_BELOW:
+        return est
+    return replace(again, info={**again.info, "pitch": replace(got, cameras=())})
+
+
 def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float, workers: int = 1) -> CameraEstimate:
     """``est`` (:func:`register_frame` at ``pitch``) with the still's size
     estimated (``register_frame(estimate_size=True)``): from its camera
     (:func:`size_from_view`), kept where the frame's line support of that
     camera at that size (docs/evaluate.md) is at least
     :data:`arstream.pitch_size.SCAN_BELOW` (or has too few markings in view
-    to be measured); else the scan's size whose camera fits the frame
-    clearly better, if any (:func:`size_from_scan`).
+    to be measured) and it explains the detector's centre circle, if any
+    (:func:`circle_verdict`); else the scan's size whose camera fits the
+    frame clearly better, if any (:func:`size_from_scan`).
 
-    A still without a camera at ``pitch`` stays "lost": with no camera to
-    compare against, another size's camera is not evidence of the size (an
-    ``israel_league_wide`` frame a third hidden by a bar, lost at 105 x 68,
-    gives at every 72 m wide size a camera with a line support of 0.97 that
-    is 13-22 px off: tests/test_paint.py)."""
-    if est.camera is None:
-        return est
+    A camera that misses the detector's circle fits the frame poorly
+    whatever its line support (:func:`register_frame` refuses the still
+    with it). A penalty
+    view with the circle's edge in a corner shows the pitch's length (the
+    circle's distance from the penalty area), and at 105 x 68 a camera laid
+    on the area's lines misses the circle of a 101 m pitch (0 % of its
+    points explained, line support 0.98: ``real-penalty`` 94 frame 0); the
+    scan's sizes, whose cameras must explain the circle, find it (100 x 72,
+    then 100.7 x 69.7 estimated from there, 2.4 px from the truth).
+
+    ``est`` has a camera. A still without one at ``pitch`` is never scanned:
+    with no camera to compare against, another size's camera is not
+    evidence of the size (an ``israel_league_wide`` frame a third hidden by
+    a bar, lost at 105 x 68, gives at every 72 m wide size a camera with a
+    line support of 0.97 that is 13-22 px off: tests/test_paint.py); only
+    the size its own view measures is (:func:`size_from_unbacked`)."""
     luma = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
     view = paint_view(image, detections)
     camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
     own = replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
     fits = _line_support(own, luma, made_at.model(pitch.line_width))
-    # (a camera with too few markings in view for a line support is no poor fit)
-    if fits is None or fits >= SCAN_BELOW:
+    # (a camera with too few markings in view for a line support is no poor
+    # fit; one that misses the detector's circle is)
+    misses = circle_verdict(camera, detections.ellipses, size, made_at.model(pitch.line_width)) is not None
+    if (fits is None or fits >= SCAN_BELOW) and not misses:
         return own
     got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support, workers=workers)
     return replace(got, info={**got.info, "pitch": made_at})
@@ -1155,5 +1235,6 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     if pitch is not None and est.camera is not None:
         est.info["pitch"] = PitchSize(pitch.length, pitch.width, source="given")
     if est.camera is None:
-        return est
+        # (an unbacked camera is in the solver's pixels, and no result)
+        return replace(est, info={k: v for k, v in est.info.items() if k != "unbacked"})
     return CameraEstimate(est.frame, est.pts, est.status, an.camera(est.camera), est.confidence, est.info)

@@ -1326,6 +1326,46 @@ def test_register_image_estimates_an_odd_still_s_size():
     assert error_1280(unknown) < 2.0 < 5.0 < error_1280(given)
 
 
+def test_a_still_lost_at_105_x_68_is_registered_at_the_size_its_view_fixes():
+    # a realistic synthetic wide still of a 105 x 74 m pitch with both
+    # penalty areas and both touchlines in view: at 105 x 68 no camera is
+    # backed (fitted to touchlines 6 m too close together, its penalty areas
+    # miss their paint), so the scan of sizes, which compares against the
+    # default's camera, never starts. The view's best unbacked camera
+    # measures the width (size_from_unbacked) and the still is registered
+    # at that size
+    from arstream.pitch_size import SCAN_BELOW
+    from arstream.support import bright_mask, line_support, marking_points
+
+    clip, unknown, given, error_1280 = _registered_both_ways("real-wide", 92, 200, 125)
+    assert (clip.pitch.length, clip.pitch.width) == (105.0, 74.0)
+    assert given.camera is None and "areas' sides" in given.info["reason"], given.info
+    assert "unbacked" not in given.info  # (the solver's camera is no result)
+    assert unknown.camera is not None, unknown.info
+    made_at = unknown.info["pitch"]
+    assert made_at.source == "estimated" and made_at.width_sd is not None and abs(made_at.width - 74.0) < 2 * made_at.width_sd, made_at.describe()
+    luma = bright_mask(cv2.cvtColor(clip.render(125), cv2.COLOR_BGR2GRAY))
+    assert line_support(unknown.camera, luma, marking_points(made_at.model())).share >= SCAN_BELOW
+    assert error_1280(unknown) < 2.0
+
+
+def test_a_still_whose_camera_misses_the_circle_is_scanned():
+    # a realistic synthetic penalty view of a 101 x 69 m pitch with the
+    # centre circle's edge in a corner: at 105 x 68 the camera laid on the
+    # area's lines has a line support of 0.98 (no poor fit by that measure)
+    # but misses the detector's circle, and the still was lost. Missing the
+    # circle is a poor fit: the scan's sizes, whose cameras must explain
+    # it, find the length
+    clip, unknown, given, error_1280 = _registered_both_ways("real-penalty", 94, 200, 0)
+    assert (clip.pitch.length, clip.pitch.width) == (101.0, 69.0)
+    assert given.camera is None and "centre circle" in given.info["reason"], given.info
+    assert unknown.camera is not None, unknown.info
+    made_at = unknown.info["pitch"]
+    assert made_at.scan is not None and made_at.scan.chosen != 0, made_at.describe()
+    assert abs(made_at.length - 101.0) < 2 * made_at.length_sd, made_at.describe()
+    assert error_1280(unknown) < 5.0
+
+
 def test_a_still_s_estimate_is_judged_point_for_point_not_by_line_support():
     # a realistic SD still of a 106.5 x 68 m pitch: the 105 x 68 camera's line
     # support is a little higher than the estimate's camera's (shares of
