@@ -804,7 +804,7 @@ def register_frame(detections, size, *, principal_point=None, pitch: PitchModel 
             # (lost at the default size: the size its best unbacked camera's view gives)
             est = size_from_unbacked(est, detections, size, image, pitch, pp, estimate_k1=estimate_k1, min_support=min_support)
         else:
-            est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers)
+            est = _with_size(est, detections, size, image, pitch, pp, estimate_k1, min_support, workers, explain_circles=explain_circles)
         if est.camera is not None and explain_circles and (why := circle_verdict(est.camera, detections.ellipses, size, est.info["pitch"].model(pitch.line_width))) is not None:
             return CameraEstimate.lost(0, 0.0, reason=f"no camera the frame supports (line support {est.info.get('support') or 0.0:.2f}, {why})")
         return est
@@ -1039,14 +1039,14 @@ def size_from_unbacked(est: CameraEstimate, detections, size, image: np.ndarray,
     return replace(again, info={**again.info, "pitch": replace(got, cameras=())})
 
 
-def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float, workers: int = 1) -> CameraEstimate:
+def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, pp, estimate_k1: bool, min_support: float, workers: int = 1, *, explain_circles: bool = True) -> CameraEstimate:
     """``est`` (:func:`register_frame` at ``pitch``) with the still's size
     estimated (``register_frame(estimate_size=True)``): from its camera
     (:func:`size_from_view`), kept where the frame's line support of that
     camera at that size (docs/evaluate.md) is at least
     :data:`arstream.pitch_size.SCAN_BELOW` (or has too few markings in view
     to be measured) and it explains the detector's centre circle, if any
-    (:func:`circle_verdict`); else the scan's size whose camera fits the
+    (:func:`circle_verdict`, with ``explain_circles``); else the scan's size whose camera fits the
     frame clearly better, if any (:func:`size_from_scan`).
 
     A camera that misses the detector's circle fits the frame poorly
@@ -1072,7 +1072,7 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     fits = _line_support(own, luma, made_at.model(pitch.line_width))
     # (a camera with too few markings in view for a line support is no poor
     # fit; one that misses the detector's circle is)
-    misses = circle_verdict(camera, detections.ellipses, size, made_at.model(pitch.line_width)) is not None
+    misses = explain_circles and circle_verdict(camera, detections.ellipses, size, made_at.model(pitch.line_width)) is not None
     if (fits is None or fits >= SCAN_BELOW) and not misses:
         return own
     got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support, workers=workers)
