@@ -1046,18 +1046,19 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     camera at that size (docs/evaluate.md) is at least
     :data:`arstream.pitch_size.SCAN_BELOW` (or has too few markings in view
     to be measured) and it explains the detector's centre circle, if any
-    (:func:`circle_verdict`, with ``explain_circles``); else the scan's size whose camera fits the
-    frame clearly better, if any (:func:`size_from_scan`).
+    (:func:`circle_verdict`, with ``explain_circles``); else the scan's
+    size whose camera fits the frame clearly better, if any
+    (:func:`size_from_scan`).
 
     A camera that misses the detector's circle fits the frame poorly
     whatever its line support (:func:`register_frame` refuses the still
-    with it). A penalty
-    view with the circle's edge in a corner shows the pitch's length (the
-    circle's distance from the penalty area), and at 105 x 68 a camera laid
-    on the area's lines misses the circle of a 101 m pitch (0 % of its
-    points explained, line support 0.98: ``real-penalty`` 94 frame 0); the
-    scan's sizes, whose cameras must explain the circle, find it (100 x 72,
-    then 100.7 x 69.7 estimated from there, 2.4 px from the truth).
+    with it). A penalty view with the circle's edge in a corner shows the
+    pitch's length (the circle's distance from the penalty area), and at
+    105 x 68 a camera laid on the area's lines misses the circle of a
+    101 m pitch (0 % of its points explained, line support 0.98:
+    ``real-penalty`` 94 frame 0); the scan's sizes, whose cameras must
+    explain the circle, find it (100 x 72, then 100.7 x 69.7 estimated from
+    there, 2.4 px from the truth).
 
     ``est`` has a camera. A still without one at ``pitch`` is never scanned:
     with no camera to compare against, another size's camera is not
