@@ -963,11 +963,8 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     kept = (camera, PitchSize(pitch.length, pitch.width, source="default", views=1), support)
     if support is None:
         return kept
-    try:
-        got = estimate_view_size(camera, view.points, size, pitch)
-    except ValueError:
-        return kept
-    if not got.cameras or got.within_noise((pitch.length, pitch.width)):
+    got = _view_estimate(camera, view, size, pitch)
+    if got is None or not got.cameras or got.within_noise((pitch.length, pitch.width)):
         return kept
     other = got.model(pitch.line_width)
     sup, spread = backed_support(got.cameras[0], view.bright, other)
@@ -978,6 +975,17 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
         return kept
     # (the camera is returned on its own: the size's copy would be in the frame's pixels it was fitted in)
     return got.cameras[0], replace(got, cameras=()), sup
+
+
+def _view_estimate(camera: Camera, view: PaintView, size, pitch: PitchModel) -> PitchSize | None:
+    """The size ``camera``'s view of the frame's paint constrains
+    (:func:`arstream.pitch_size.estimate_view_size` on ``view``'s paint
+    pixels, ``pitch`` the prior); None where too few of the markings in view
+    matched the paint."""
+    try:
+        return estimate_view_size(camera, view.points, size, pitch)
+    except ValueError:
+        return None
 
 
 def size_from_unbacked(est: CameraEstimate, detections, size, image: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7) -> CameraEstimate:
@@ -1027,11 +1035,8 @@ def size_from_unbacked(est: CameraEstimate, detections, size, image: np.ndarray,
     if camera is None:
         return est
     view = paint_view(image, detections)
-    try:
-        got = estimate_view_size(camera, view.points, size, pitch)
-    except ValueError:
-        return est
-    if not got.cameras or got.within_noise((pitch.length, pitch.width)):
+    got = _view_estimate(camera, view, size, pitch)
+    if got is None or not got.cameras or got.within_noise((pitch.length, pitch.width)):
         return est
     other = got.model(pitch.line_width)
     again = register_frame(detections, size, principal_point=principal_point, pitch=other, estimate_k1=estimate_k1, image=image, min_support=min_support, explain_circles=False)
@@ -1041,11 +1046,8 @@ def size_from_unbacked(est: CameraEstimate, detections, size, image: np.ndarray,
     if fits is None or fits < SCAN_BELOW:
         return est
     # (and its view, measured again from that camera, gives that size back)
-    try:
-        back = estimate_view_size(again.camera, view.points, size, other)
-    except ValueError:
-        return est
-    if not back.within_noise((other.length, other.width)):
+    back = _view_estimate(again.camera, view, size, other)
+    if back is None or not back.within_noise((other.length, other.width)):
         return est
     return replace(again, info={**again.info, "pitch": replace(got, cameras=())})
 
