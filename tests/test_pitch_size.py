@@ -983,6 +983,72 @@ def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
 
 
+def test_a_run_at_an_estimate_its_views_give_again_is_a_fixed_point(odd_clip):
+    # the 100 x 68 m clip tracked at 102.5 x 68 (an estimate from views made at
+    # 105 x 68, pulled towards it): that run's own views estimate the length
+    # again, near 100 m and beyond their noise of 102.5; tracked at that
+    # estimate, its views give it back (within their noise): no other size
+    import copy
+
+    from arstream.pipeline import api
+    from arstream.pitch_size import PitchSize
+
+    clip, _, f = odd_clip()
+    run = _run_options(clip)
+    before = copy.copy(f)
+    again = api._estimated_again(clip, before, run, PitchSize(102.5, 68.0, 0.3, 0.3, source="estimated", views=6))
+    assert again is not None and again.source == "estimated" and again.length_sd is not None, again
+    assert abs(again.length - 100.0) < 1.0 and not again.within_noise((102.5, 68.0)), again.describe()
+    assert before.seconds > f.seconds and before.cpu_seconds > f.cpu_seconds
+    assert api._estimated_again(clip, before, run, again) is None
+
+
+def test_an_estimate_the_check_turns_down_is_judged_again_at_the_size_its_own_run_s_views_give(tmp_path, monkeypatch, odd_clip):
+    # the 100 x 68 m clip, its scan held to sizes that fit it worse than 105 x 68
+    # (no grid size wins), the default's views estimating 102.5 x 68 (views made
+    # at a size metres off pull their estimate towards it) and the check turning
+    # that down: the run at 102.5 x 68 estimates the size again from its own
+    # views, the check judges that size on the scan's frames and keeps it (the
+    # paint backs it better than 105 x 68), and a last run tracks the clip at it
+    import dataclasses
+
+    import arstream.pipeline.pitch_scan as pitch_scan
+    from arstream.evaluate import score_files
+    from arstream.pipeline import api, process
+    from arstream.pitch_size import PitchSize
+
+    clip, _, _ = odd_clip()
+    _hold_grid(monkeypatch)
+    once = api._process_once
+
+    def pulled(*a, **k):
+        got = once(*a, **k)
+        return got[:3] + (PitchSize(102.5, 68.0, 0.3, 0.3, source="estimated", views=6),) if k.get("estimate_pitch") else got
+
+    monkeypatch.setattr(api, "_process_once", pulled)
+    check_size, checked = pitch_scan.check_size, []
+
+    def turned_down_first(**kw):
+        got = check_size(**kw)
+        checked.append(tuple(kw["size"]))
+        return (dataclasses.replace(got[0], chosen=0),) + got[1:] if len(checked) == 1 else got
+
+    monkeypatch.setattr(pitch_scan, "check_size", turned_down_first)
+    cams = tmp_path / "cams.jsonl"
+    s = process(clip, cameras_out=cams, handle_signals=False)
+    assert len(checked) == 2 and checked[0] == (102.5, 68.0) and abs(checked[1][0] - 100.0) < 1.0, checked
+    scan = s.pitch["scan"]
+    assert s.pitch["source"] == "estimated" and scan["sizes"][:3] == [[105.0, 68.0], [110.0, 68.0], [105.0, 72.0]], s.pitch_text
+    assert scan["chosen"] == 3 and scan["sizes"][3] == pytest.approx(list(checked[1]), abs=5e-4), s.pitch_text
+    assert abs(s.pitch["length"] - 100.0) <= 1.0 and abs(s.pitch["width"] - 68.0) <= 1.0, s.pitch_text
+    assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
+    given = tmp_path / "given.jsonl"
+    process(clip, cameras_out=given, pitch=(s.pitch["length"], s.pitch["width"]), handle_signals=False)
+    assert _largest_gap(cams, given, (1280, 720)) < 0.05
+    sc = score_files(clip.parent / "truth.jsonl", cams, pred_pitch=PitchModel(s.pitch["length"], s.pitch["width"]))
+    assert sc.coverage >= 0.95 and sc.median < 1.0, sc
+
+
 @pytest.mark.parametrize(
     "seen_first, median_next, sizes_run, final",
     [
