@@ -983,33 +983,41 @@ def test_the_last_run_at_an_estimate_estimates_again_from_its_own_views(tmp_path
     assert _largest_gap(cams, given, (1280, 720)) < 0.05
 
 
-def test_a_run_at_an_estimate_its_views_give_again_is_a_fixed_point(odd_clip):
-    # the 100 x 68 m clip tracked at 102.5 x 68 (an estimate from views made at
-    # 105 x 68, pulled towards it): that run's own views estimate the length
-    # again, near 100 m and beyond their noise of 102.5; tracked at that
-    # estimate, its views give it back (within their noise): no other size
-    import copy
-
+def test_the_scan_s_tracker_tells_the_size_its_views_give(odd_clip):
+    # the 100 x 68 m clip tracked by the scan's tracker at 102.5 x 68 (an
+    # estimate from views made at 105 x 68, pulled towards it), watching its
+    # views: they estimate the length again, near 100 m and beyond their
+    # noise of 102.5; tracked at that estimate, its views give it back
+    # (within their noise): a fixed point. Without watching, no size is told
+    # and the supports are the same
     from arstream.pipeline import api
-    from arstream.pitch_size import PitchSize
+    from arstream.pipeline.pitch_scan import track_sizes
+    from arstream.pipeline.stages import DEFAULT_ANALYSIS_WIDTH, Analysis
 
-    clip, _, f = odd_clip()
-    run = _run_options(clip)
-    before = copy.copy(f)
-    again = api._estimated_again(clip, before, run, PitchSize(102.5, 68.0, 0.3, 0.3, source="estimated", views=6))
-    assert again is not None and again.source == "estimated" and again.length_sd is not None, again
-    assert abs(again.length - 100.0) < 1.0 and not again.within_noise((102.5, 68.0)), again.describe()
-    assert before.seconds > f.seconds and before.cpu_seconds > f.cpu_seconds
-    assert api._estimated_again(clip, before, run, again) is None
+    clip, _, _ = odd_clip()
+    api._load_kernels()
+    with api._open(clip) as src:
+        an = Analysis(src.width, src.height, DEFAULT_ANALYSIS_WIDTH, area=api._picture_area(clip))
+        off, _ = track_sizes(src, an, [(102.5, 68.0)], watch=True, handle_signals=False)
+    (seen,) = off.seen
+    assert seen is not None and seen.source == "estimated" and seen.length_sd is not None, seen
+    assert abs(seen.length - 100.0) < 1.0 and not seen.within_noise((102.5, 68.0)), seen.describe()
+    with api._open(clip) as src:
+        back, _ = track_sizes(src, an, [(seen.length, seen.width)], watch=True, handle_signals=False)
+    assert back.seen[0] is not None and back.seen[0].within_noise((seen.length, seen.width)), back.seen[0].describe()
+    with api._open(clip) as src:
+        blind, _ = track_sizes(src, an, [(102.5, 68.0)], handle_signals=False)
+    assert blind.seen == [] and blind.supports == off.supports
 
 
-def test_an_estimate_the_check_turns_down_is_judged_again_at_the_size_its_own_run_s_views_give(tmp_path, monkeypatch, odd_clip):
+def test_an_estimate_the_check_turns_down_is_judged_again_at_the_size_its_views_give(tmp_path, monkeypatch, odd_clip):
     # the 100 x 68 m clip, its scan held to sizes that fit it worse than 105 x 68
     # (no grid size wins), the default's views estimating 102.5 x 68 (views made
     # at a size metres off pull their estimate towards it) and the check turning
-    # that down: the run at 102.5 x 68 estimates the size again from its own
-    # views, the check judges that size on the scan's frames and keeps it (the
-    # paint backs it better than 105 x 68), and a last run tracks the clip at it
+    # that down: the views the check's tracker made at 102.5 x 68 estimate the
+    # size again, the check judges that size on the scan's frames and keeps it
+    # (the paint backs it better than 105 x 68), and a last run tracks the clip
+    # at it
     import dataclasses
 
     import arstream.pipeline.pitch_scan as pitch_scan

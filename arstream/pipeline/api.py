@@ -465,10 +465,10 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     105.7 x 69.7, a run at that size freezing its tripod's centre 1.7 m
     short and scoring 0.86 on the scan's frames against the default's 0.91,
     while its own views give 105.5 +- 0.3 x 70.5 +- 0.2 (bench/README.md
-    "Stop 90"). So an estimate the check turns down is tracked once more
-    (no outputs), and the size that run's views estimate, where it is
-    another size than the estimate and than the default (beyond their
-    noise, :func:`_estimated_again`), is judged by the same check.
+    "Stop 90"). So the check's tracker keeps its views too, and where the
+    check turns the estimate down and the size those views estimate is
+    another than the estimate and than the default (beyond their noise),
+    that size is judged by the same check.
     Otherwise the first run's outputs stay, and the summary says the
     default was kept, with the estimates' line supports among the sizes
     tried."""
@@ -489,18 +489,19 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         first.cpu_seconds += auto.cpu_seconds
         if est is None or est.source != "estimated" or est.within_noise(scan.sizes[0]):
             return kept(scan)
-        check, check_s, check_cpu = check_size(scan=scan, size=(est.length, est.width), analysis=an, **_scan_options(input, run))
+        check, check_s, check_cpu, seen = check_size(scan=scan, size=(est.length, est.width), analysis=an, **_scan_options(input, run))
     except Interrupted as e:
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None
     first.seconds += check_s
     first.cpu_seconds += check_cpu
     if check.chosen == 0:
+        # (the size the views tracked at the estimate give: another, beyond their noise, and
+        # the estimate was no fixed point; that size is judged by the same check)
+        if seen is None or seen.source != "estimated" or seen.within_noise((est.length, est.width)) or seen.within_noise(scan.sizes[0]):
+            return kept(check)
         try:
-            again = _estimated_again(input, first, run, est)
-            if again is None or again.within_noise(scan.sizes[0]):
-                return kept(check)
-            check, check_s, check_cpu = check_size(scan=scan, size=(again.length, again.width), analysis=an, **_scan_options(input, run))
+            check, check_s, check_cpu, _ = check_size(scan=scan, size=(seen.length, seen.width), analysis=an, **_scan_options(input, run))
         except Interrupted as e:
             first.interrupted = e.signum
             raise Interrupted(e.signum, first) from None
@@ -508,27 +509,13 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         first.cpu_seconds += check_cpu
         if check.chosen == 0:
             return kept(check)
-        est = again
+        est = seen
     if check.chosen != len(check.sizes) - 1:
         # (the estimate, higher than the grid's sizes on the other side of the default, told a
         # dimension the grid left open; a grid size on its side is nearer the default, and won)
         return _at_scanned(input, output, cameras_out, first, run, check)
     size = dataclasses.replace(est, scan=check)
     return _at_estimate(input, output, cameras_out, first, run, size)
-
-
-def _estimated_again(input, first: Summary, run: dict, size):
-    """The size the views of a run at ``size`` (a PitchSize estimated from
-    views made at another size) estimate (:func:`_process_once` with
-    ``watch_pitch``, no outputs; its seconds added to ``first``'s), or None
-    where they estimate none or one within the noise of ``size`` (it is the
-    size its own views give)."""
-    tried, _, _, seen = _process_once(input, None, None, pitch=size.model(), watch_pitch=True, **run)
-    first.seconds += tried.seconds
-    first.cpu_seconds += tried.cpu_seconds
-    if seen is None or seen.source != "estimated" or seen.within_noise((size.length, size.width)):
-        return None
-    return seen
 
 
 def _run_beside(input, output, cameras_out, before: Summary, run: dict, *, pitch, estimate_pitch: bool = False, watch_pitch: bool = False, keep: Callable | None = None) -> tuple[Summary, object, list]:

@@ -22,7 +22,7 @@ from arstream.pipeline.runner import Pipeline
 from arstream.pipeline.stage import Item, Stage
 from arstream.pipeline.stages import Analysis, DetectStage
 from arstream.pipeline.summary import Summary
-from arstream.pitch_size import SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, on_frames, with_size
+from arstream.pitch_size import PitchSize, SizeScan, choose_size, compared_point_for_point, corresponding_points, diagonal_step, grid_neighbours, on_frames, with_size
 from arstream.support import frame_mask, marking_points, paint_dispute, pixel_support, within_reach
 
 __all__ = ["SizeScanStage", "SizesTracked", "track_sizes", "scan_sizes", "scan_passes", "check_size", "SCAN_MAX_FRAMES"]
@@ -95,12 +95,16 @@ class SizesTracked:
     fine : per size, each frame's on-paint share: line support on the bright
         pixels themselves, undilated (``frame_mask(frame, reach=0)``; None: no
         camera), which still tells sizes apart where the 2 px support saturates
+    seen : with ``watch``, per size, the size its tracker's views estimate
+        (:meth:`arstream.track.Tracker.pitch_seen`; None with too few views);
+        else empty
     """
 
     supports: list = field(default_factory=list)
     cameras: list = field(default_factory=list)
     disputes: dict = field(default_factory=dict)
     fine: list = field(default_factory=list)
+    seen: list = field(default_factory=list)
 
 
 class SizeScanStage(Stage):
@@ -122,11 +126,13 @@ class SizeScanStage(Stage):
     sizes : sequence of (length, width) in metres
     fps : the clip's frame rate
     rivals : optional {(length, width): cameras per frame} of earlier passes
+    watch : each tracker keeps the views a size's estimate takes
+        (``watch_pitch``), for :attr:`seen`
     """
 
     name = "track"
 
-    def __init__(self, analysis: Analysis, sizes, fps: float, rivals=None):
+    def __init__(self, analysis: Analysis, sizes, fps: float, rivals=None, watch: bool = False):
         from arstream.initialise import FrameViews
         from arstream.track import Tracker, TrackerConfig
         from geometry.pitch import PitchModel
@@ -135,7 +141,7 @@ class SizeScanStage(Stage):
         every = max(1, round(fps * SCAN_PAINT_SECONDS))
         cfg = TrackerConfig(paint_every=every, rival_every=every)
         views = FrameViews()  # (a frame's paint, made once for every size)
-        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg, views=views) for L, W in sizes]
+        self.trackers = [Tracker(analysis.w, analysis.h, fps=fps, lag=0, principal_point=analysis.principal_point, support_reach=analysis.support_reach, pitch=PitchModel(L, W), config=cfg, views=views, watch_pitch=watch) for L, W in sizes]
         self.points = [marking_points(t.pitch) for t in self.trackers]
         self.sizes = [(float(L), float(W)) for L, W in sizes]
         self.rivals = {tuple(map(float, k)): v for k, v in (rivals or {}).items() if tuple(map(float, k)) not in self.sizes}
@@ -144,6 +150,11 @@ class SizeScanStage(Stage):
         pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i] if compared_point_for_point(a, b)]
         self._samples = {(a, b): corresponding_points(PitchModel(*a), PitchModel(*b)) for a, b in pairs}
         self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {}, [[] for _ in sizes])
+
+    @property
+    def seen(self) -> list:
+        """Per size, the size its tracker's views estimate (with ``watch``; else Nones)."""
+        return [t.pitch_seen() for t in self.trackers]
 
     @property
     def supports(self) -> list[list]:
@@ -196,7 +207,7 @@ class SizeScanStage(Stage):
         return [item]
 
 
-def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, detect_stage: Callable[[DetectStage], Stage] = lambda st: st, max_frames: int | None = None, progress: Callable | None = None, handle_signals: bool = True, decode_nice: int = 0) -> tuple[SizesTracked, Summary]:
+def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, watch: bool = False, detect_stage: Callable[[DetectStage], Stage] = lambda st: st, max_frames: int | None = None, progress: Callable | None = None, handle_signals: bool = True, decode_nice: int = 0) -> tuple[SizesTracked, Summary]:
     """Track the clip's first frames (at most ``max_frames``) at each of ``sizes``.
 
     Parameters
@@ -206,6 +217,8 @@ def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, detect_stage:
     sizes : sequence of (length, width) in metres
     rivals : optional {(length, width): cameras per frame} tracked by an
         earlier pass over the same frames, to compare ``sizes``' cameras with
+    watch : also estimate the size each size's views give
+        (:attr:`SizesTracked.seen`)
     detect_stage : wraps the detector's stage (e.g. on a worker thread)
     max_frames, progress, handle_signals : as for :func:`arstream.pipeline.process`
     decode_nice : niceness of the decode thread
@@ -219,9 +232,11 @@ def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, detect_stage:
     Interrupted : stopped by a signal
     """
     W, H = source.width, source.height
-    scan = SizeScanStage(analysis, sizes, source.fps, rivals=rivals)
+    scan = SizeScanStage(analysis, sizes, source.fps, rivals=rivals, watch=watch)
     pipe = Pipeline(source, [_UnlessGaveUp(scan), detect_stage(DetectStage(W, H, analysis=analysis)), scan], progress=progress, max_frames=max_frames, decode_nice=decode_nice, prepare=analysis.prepare)
     summary = pipe.run(handle_signals=handle_signals)
+    if watch:
+        scan.tracked.seen = scan.seen
     return scan.tracked, summary
 
 
@@ -273,11 +288,15 @@ def scan_sizes(open_source: Callable, analysis: Analysis, *, max_frames: int | N
     return scan_passes(track), spent[0], spent[1]
 
 
-def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float]:
+def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, *, max_frames: int | None = None, **kwargs) -> tuple[SizeScan, float, float, PitchSize | None]:
     """One more size judged against a scan's: ``size`` tracked on the scan's
     frames by the scan's tracker, and the choice made again over every size
     (:func:`arstream.pitch_size.with_size`), its cameras compared with the
-    scan's sizes' point for point on the same frames.
+    scan's sizes' point for point on the same frames. The tracker keeps the
+    views a size's estimate takes, and the size they estimate comes back
+    too: views made at a size metres off pull their estimate towards it,
+    so a size that is not the one its own views give is no fixed point
+    (:func:`arstream.pipeline.api._estimate_from_default`).
 
     Parameters
     ----------
@@ -288,7 +307,9 @@ def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, 
 
     Returns
     -------
-    (SizeScan over the scan's sizes and ``size``, wall seconds, CPU seconds)
+    (SizeScan over the scan's sizes and ``size``, wall seconds, CPU seconds,
+    the PitchSize the views tracked at ``size`` estimate: None with too few
+    views; a dimension they leave open at ``size``'s value)
 
     Raises
     ------
@@ -297,8 +318,8 @@ def check_size(open_source: Callable, analysis: Analysis, scan: SizeScan, size, 
     limit = _frames_limit(max_frames)
     rivals = dict(zip(scan.sizes, scan.cameras)) if scan.cameras else None
     with open_source() as src:
-        got, summary = track_sizes(src, analysis, [tuple(size)], rivals=rivals, max_frames=limit, **kwargs)
-    return with_size(scan, size, got.supports[0], got.disputes, got.cameras[0], fine=got.fine[0] if got.fine else None), summary.seconds, summary.cpu_seconds
+        got, summary = track_sizes(src, analysis, [tuple(size)], rivals=rivals, watch=True, max_frames=limit, **kwargs)
+    return with_size(scan, size, got.supports[0], got.disputes, got.cameras[0], fine=got.fine[0] if got.fine else None), summary.seconds, summary.cpu_seconds, got.seen[0]
 
 
 def scan_passes(track: Callable[[list, dict], SizesTracked]) -> SizeScan:
