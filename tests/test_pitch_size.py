@@ -1047,7 +1047,8 @@ def test_an_estimate_the_check_turns_down_is_judged_again_at_the_size_its_views_
     assert len(checked) == 2 and checked[0] == (102.5, 68.0) and abs(checked[1][0] - 100.0) < 1.0, checked
     scan = s.pitch["scan"]
     assert s.pitch["source"] == "estimated" and scan["sizes"][:3] == [[105.0, 68.0], [110.0, 68.0], [105.0, 72.0]], s.pitch_text
-    assert scan["chosen"] == 3 and scan["sizes"][3] == pytest.approx(list(checked[1]), abs=5e-4), s.pitch_text
+    # (the summary lists the estimate turned down and the one kept)
+    assert scan["sizes"][3] == [102.5, 68.0] and scan["chosen"] == 4 and scan["sizes"][4] == pytest.approx(list(checked[1]), abs=5e-4), s.pitch_text
     assert abs(s.pitch["length"] - 100.0) <= 1.0 and abs(s.pitch["width"] - 68.0) <= 1.0, s.pitch_text
     assert not [p.name for p in tmp_path.iterdir() if ".rescan" in p.name]
     given = tmp_path / "given.jsonl"

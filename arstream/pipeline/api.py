@@ -501,7 +501,8 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         if seen is None or seen.source != "estimated" or seen.within_noise((est.length, est.width)) or seen.within_noise(scan.sizes[0]):
             return kept(check)
         try:
-            check, check_s, check_cpu, _ = check_size(scan=scan, size=(seen.length, seen.width), analysis=an, **_scan_options(input, run))
+            # (judged against the grid's sizes and the estimate turned down: the summary lists both)
+            check, check_s, check_cpu, _ = check_size(scan=check, size=(seen.length, seen.width), analysis=an, **_scan_options(input, run))
         except Interrupted as e:
             first.interrupted = e.signum
             raise Interrupted(e.signum, first) from None
