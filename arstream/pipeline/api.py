@@ -505,7 +505,7 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
     first.cpu_seconds += check_cpu
     if check.chosen == 0:
         # (the size the views tracked at the estimate give: another, beyond their noise, and
-        # the estimate was no fixed point; that size is judged by the same check)
+        # the estimate was no fixed point; that size is tracked on the scan's frames too)
         if seen is None or seen.source != "estimated" or seen.within_noise((est.length, est.width)) or seen.within_noise(scan.sizes[0]):
             return kept(check)
         try:
