@@ -489,33 +489,37 @@ def _estimate_from_default(input, output, cameras_out, first: Summary, an: Analy
         first.pitch, first.pitch_text = size.to_dict(), size.describe()
         return first
 
+    def checked(against, size):
+        """``check_size`` of ``size`` against the SizeScan ``against``: (the SizeScan, the size
+        its views give); its seconds added to ``first``'s, and on a signal ``first`` carried."""
+        try:
+            got, secs, cpu, seen = check_size(scan=against, size=(size.length, size.width), analysis=an, **_scan_options(input, run))
+        except Interrupted as e:
+            first.interrupted = e.signum
+            raise Interrupted(e.signum, first) from None
+        first.seconds += secs
+        first.cpu_seconds += cpu
+        return got, seen
+
     if scan.median[0] is None:  # (the scan's trackers could not follow the clip: nothing to judge by)
         return kept(scan)
     try:
         auto, _, _, est = _process_once(input, None, None, pitch=PitchModel(), estimate_pitch=True, **run)
-        first.seconds += auto.seconds
-        first.cpu_seconds += auto.cpu_seconds
-        if est is None or est.source != "estimated" or est.within_noise(scan.sizes[0]):
-            return kept(scan)
-        check, check_s, check_cpu, seen = check_size(scan=scan, size=(est.length, est.width), analysis=an, **_scan_options(input, run))
     except Interrupted as e:
         first.interrupted = e.signum
         raise Interrupted(e.signum, first) from None
-    first.seconds += check_s
-    first.cpu_seconds += check_cpu
+    first.seconds += auto.seconds
+    first.cpu_seconds += auto.cpu_seconds
+    if est is None or est.source != "estimated" or est.within_noise(scan.sizes[0]):
+        return kept(scan)
+    check, seen = checked(scan, est)
     if check.chosen == 0:
         # (the size the views tracked at the estimate give: another, beyond their noise, and
         # the estimate was no fixed point; that size is tracked on the scan's frames too)
         if seen is None or seen.source != "estimated" or seen.within_noise((est.length, est.width)) or seen.within_noise(scan.sizes[0]):
             return kept(check)
-        try:
-            # (judged against the grid's sizes and the estimate turned down: the summary lists both)
-            check, check_s, check_cpu, _ = check_size(scan=check, size=(seen.length, seen.width), analysis=an, **_scan_options(input, run))
-        except Interrupted as e:
-            first.interrupted = e.signum
-            raise Interrupted(e.signum, first) from None
-        first.seconds += check_s
-        first.cpu_seconds += check_cpu
+        # (judged against the grid's sizes and the estimate turned down: the summary lists both)
+        check, _ = checked(check, seen)
         # (a second size on the same frames, after one turned down: only a clear win by the
         # median, not the paired tests that settle sizes within the margin, whose blocks flip
         # with the encoding on a long lens's views; the size is the one judged, not a grid's)

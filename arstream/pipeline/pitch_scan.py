@@ -127,7 +127,7 @@ class SizeScanStage(Stage):
     fps : the clip's frame rate
     rivals : optional {(length, width): cameras per frame} of earlier passes
     watch : each tracker keeps the views a size's estimate takes
-        (``watch_pitch``), for :attr:`seen`
+        (``watch_pitch``), for :attr:`SizesTracked.seen`
     """
 
     name = "track"
@@ -150,11 +150,6 @@ class SizeScanStage(Stage):
         pairs = [(a, b) for i, b in enumerate(self.sizes) for a in list(self.rivals) + self.sizes[:i] if compared_point_for_point(a, b)]
         self._samples = {(a, b): corresponding_points(PitchModel(*a), PitchModel(*b)) for a, b in pairs}
         self.tracked = SizesTracked([[] for _ in sizes], [[] for _ in sizes], {}, [[] for _ in sizes])
-
-    @property
-    def seen(self) -> list:
-        """Per size, the size its tracker's views estimate (with ``watch``; else Nones)."""
-        return [t.pitch_seen() for t in self.trackers]
 
     @property
     def supports(self) -> list[list]:
@@ -236,7 +231,7 @@ def track_sizes(source, analysis: Analysis, sizes, *, rivals=None, watch: bool =
     pipe = Pipeline(source, [_UnlessGaveUp(scan), detect_stage(DetectStage(W, H, analysis=analysis)), scan], progress=progress, max_frames=max_frames, decode_nice=decode_nice, prepare=analysis.prepare)
     summary = pipe.run(handle_signals=handle_signals)
     if watch:
-        scan.tracked.seen = scan.seen
+        scan.tracked.seen = [t.pitch_seen() for t in scan.trackers]
     return scan.tracked, summary
 
 
