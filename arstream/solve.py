@@ -53,7 +53,13 @@ __all__ = [
     "seated",
     "refinements_along_sight",
     "k1_observable",
+    "MIN_FOCAL_PX",
 ]
+
+#: A refinement whose focal length falls below this (pixels) has diverged: every
+#: marking lies within a pixel of the principal point, which no camera of a pitch
+#: shows (:func:`refine_camera` raises rather than hand it on).
+MIN_FOCAL_PX = 1.0
 
 
 # ---------------------------------------------------------------------------
@@ -799,7 +805,10 @@ def refine_camera(
     Raises
     ------
     ValueError
-        If fewer than 8 model points are in view or matched.
+        If fewer than 8 model points are in view or matched, or the
+        refinement diverged: a focal length below :data:`MIN_FOCAL_PX` (or
+        not finite), where the steps shrink every marking onto the principal
+        point to meet the pixels matched in the round.
     """
     if center is None and staged:
         # rotation and focal first (well conditioned), then the full pose
@@ -883,6 +892,8 @@ def refine_camera(
         R_ref = np.ascontiguousarray(R_ref, np.float64)
         res_fin = LMResult(*refine_pose(X, Q, nrm, R_ref, M, theta0(), C_cur, k1_cur, float(pp[0]), float(pp[1]), 1.0, 12, 1e-10))
         R, C_cur, f, k1_cur = pose_from_params(res_fin.x, R_ref, M, C_cur, k1_cur)
+        if not (np.isfinite(f) and f >= MIN_FOCAL_PX and np.isfinite(R).all() and np.isfinite(C_cur).all() and np.isfinite(k1_cur)):
+            raise ValueError(f"the refinement diverged (focal length {f:.3g} px)")
         logf = float(np.log(f))
         cam = camera_of(R, C_cur, f, k1_cur)
     # confidence: support of the in-view model after refinement

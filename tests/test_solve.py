@@ -5,17 +5,20 @@ projected markings with pixel noise and occlusions, see conftest.py), to test
 the geometry in isolation; tests/test_e2e*.py run it on real detections.
 """
 
+import warnings
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import truth_detections
 
 from arstream.evaluate import score
-from arstream.solve import LineIndex, ModelSamples, explained_share, refine_camera, solve_from_circle
+from arstream.solve import MIN_FOCAL_PX, LineIndex, ModelSamples, explained_share, refine_camera, solve_from_circle
 from arstream.solve_lines import cameras_from_line_hypotheses
 from arstream.synth import SynthClip
 from arstream.initialise import initialise_camera
 from arstream.track import Tracker, TrackerConfig, widest_line
-from geometry.camera import PTZ, camera_from_ptz, ptz_from_camera
+from geometry.camera import PTZ, Camera, camera_from_ptz, ptz_from_camera
 from geometry.conics import conic_from_ellipse, Ellipse
 from geometry.homography import transfer_conic, transfer_lines
 from geometry.pitch import PitchModel
@@ -167,6 +170,25 @@ def test_refinement_with_nothing_in_view():
     cam = SynthClip("wide", seed=1, frames=10).camera(0)
     with pytest.raises(ValueError, match="fewer than 8"):
         refine_camera(cam, LineIndex(np.zeros((0, 2))), SIZE, MODEL)
+
+
+def test_a_refinement_that_diverges_raises():
+    # (tests/data/refinement/README.md: captured from a still's scan of sizes,
+    # where the focal length went to 0 and np.log divided by zero)
+    d = np.load(Path(__file__).parent / "data" / "refinement" / "diverges.npz")
+    cam = Camera(K=d["K"], R=d["R"], t=-d["R"] @ d["centre"])
+    index, size, model = LineIndex(d["points"].astype(np.float64)), tuple(int(v) for v in d["size"]), ModelSamples.from_pitch(PitchModel(100.0, 68.0), 0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (no RuntimeWarning on the way)
+        with pytest.raises(ValueError, match=r"the refinement diverged \(focal length .* px\)"):
+            refine_camera(cam, index, size, model, center=d["centre"], radii=(20.0, 10.0), staged=False)
+        # the same camera's refinement of its whole pose, staged, starts again
+        # from it after the first stage diverges, and ends as the frame allows
+        with pytest.raises(ValueError, match="fewer than 8"):
+            refine_camera(cam, index, size, model, radii=(20.0, 10.0, 5.0, 3.0))
+        # and at the size the scan's other cameras fit, it converges
+        good = refine_camera(cam, index, size, ModelSamples.from_pitch(PitchModel(110.0, 72.0), 0.5), center=d["centre"], radii=(20.0, 10.0), staged=False)
+    assert MIN_FOCAL_PX < good.camera.focal < 2 * cam.focal
 
 
 def run_tracker(clip, lag=0, with_images=False):
