@@ -268,15 +268,30 @@ class PaintView:
         return self._arcs
 
 
+def graphics_mask(detections, size) -> np.ndarray | None:
+    """(H, W) uint8, 255 on the frame's screen graphics (a score box, a
+    caption: ``detections.graphics_small``) grown by a cell of their small
+    grid, at ``size`` (width, height); None where the detector found none."""
+    graphics = getattr(detections, "graphics_small", None)
+    if graphics is None:
+        return None
+    return cv2.resize(cv2.dilate(graphics, np.ones((3, 3), np.uint8)), (int(size[0]), int(size[1])), interpolation=cv2.INTER_NEAREST)
+
+
 def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float = PAINT_CONTRAST, bright: np.ndarray | None = None) -> PaintView:
     """The paint mask (``contrast``: :func:`arstream.detect.paint.paint_mask`)
     and its pixels, the white-paint support mask (with ``reach``,
     :func:`arstream.support.white_mask`; or ``bright``, the frame's, made
     before) and the grass region of one BGR frame (the pitch region from
-    ``detections``)."""
+    ``detections``, less its screen graphics grown by a cell of their grid:
+    a caption's edge on the grass is a long straight bright step, as the
+    ridge detector's region leaves it out)."""
     H, W = image.shape[:2]
     grass = getattr(detections, "grass_mask", None)
     region = cv2.dilate(grass, np.ones((3, 3), np.uint8)) if grass is not None else None
+    graphics = graphics_mask(detections, (W, H))
+    if region is not None and graphics is not None:
+        region = cv2.subtract(cv2.resize(region, (W, H), interpolation=cv2.INTER_NEAREST) if region.shape[:2] != (H, W) else region, graphics)
     mask = paint_mask(image, region, contrast=contrast)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
@@ -1080,6 +1095,9 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     line support of 0.97 that is 13-22 px off: tests/test_paint.py); only
     the size its own view measures is (:func:`size_from_unbacked`)."""
     luma = bright_mask(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+    graphics = graphics_mask(detections, size)
+    if graphics is not None:
+        luma = luma & (graphics == 0)
     view = paint_view(image, detections)
     camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
     own = replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})

@@ -1506,3 +1506,34 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     # (register --json's "pitch" entry carries the scan: docs/formats.md)
     entry = json.loads(json.dumps(made_at.to_dict()))
     assert entry["scan"]["frames"] == 1 and entry["scan"]["sizes"][0] == [105.0, 68.0] and entry["scan"]["sizes"][entry["scan"]["chosen"]] == [105.0, 72.0]
+
+
+def test_a_caption_s_edge_is_no_touchline_for_a_still_s_size():
+    # a realistic synthetic wide still of a 101.5 x 75 m pitch whose near
+    # touchline runs along the frame's bottom edge, behind a name caption on
+    # the grass. The caption's edge, a long straight bright step, was in the
+    # paint: the scan took 100 x 68 (its camera laid the near touchline on
+    # the caption's top edge, 100 px above its paint) over 100 x 72, and the
+    # still was drawn 21 px off. The detector's screen graphics are now cut
+    # out of the still's paint and of the mask its sizes are judged on, as
+    # the ridge detector's region leaves them out
+    from arstream.detect import detect
+    from arstream.initialise import graphics_mask, paint_view, register_image
+    from arstream.synth import SynthClip
+
+    clip = SynthClip("real-wide", seed=102, frames=200)
+    assert (clip.pitch.length, clip.pitch.width) == (101.5, 75.0)
+    img, truth = clip.render(50), clip.camera(50)
+    caption = next(g for g in clip.look.graphics if g["kind"] == "caption")
+    x0, y0, x1, y1 = (int(round(v)) for v in caption["box"])
+    det = detect(img)
+    cut = graphics_mask(det, clip.size)
+    assert cut is not None and cut[y0 : y1 + 1, x0 : x1 + 1].all()  # the caption, found
+    assert (cut > 0).mean() < 0.1  # (and little else)
+    view = paint_view(img, det)
+    near = view.mask[max(y0 - 3, 0) : y1 + 4, max(x0 - 3, 0) : x1 + 4]
+    assert not near.any()  # no paint along its edges
+    est = register_image(img, pixel_aspect=float(clip.pixel_aspect))
+    made_at = est.info["pitch"]
+    assert made_at.width_sd is not None and abs(made_at.width - 75.0) < 2 * made_at.width_sd, made_at.describe()
+    assert _still_error_1280(clip, truth, est) < 5.0

@@ -347,6 +347,7 @@ class Detector:
             timings=timings,
             scale=self.factor,
             structure=structure,
+            graphics_small=None if g.graphics is None else (g.graphics.copy() if lazy else g.graphics),
         )
         if not lazy:
             det.resolve()

@@ -137,6 +137,10 @@ class Detections:
     ellipses : list of DetectedEllipse, best first (closed circles before arcs): the
         centre circle, when in view, is ``ellipses[0]``
 
+    graphics_small : (h, w) uint8 or None, the screen graphics (a score box, a
+        caption) cut out of the pitch, on the grass mask's small grid (255 =
+        graphic; :func:`arstream.detect.grass.grass_masks`), None where none
+
     ``lines`` and ``ellipses`` may be deferred (``Detector.process(...,
     lazy=True)``): they are computed on first access (:meth:`resolve`).
     timings : dict, ms per sub-stage (``lines`` and ``ellipses`` once computed)
@@ -149,7 +153,7 @@ class Detections:
     """
 
     def __init__(
-        self, width, height, pitch_visible, grass_small, grass_buf, line_small, line_buf, line_points, line_normals, lines=None, ellipses=None, timings=None, scale=1.0, *, structure=None
+        self, width, height, pitch_visible, grass_small, grass_buf, line_small, line_buf, line_points, line_normals, lines=None, ellipses=None, timings=None, scale=1.0, *, structure=None, graphics_small=None
     ):
         self.width = int(width)
         self.height = int(height)
@@ -164,6 +168,7 @@ class Detections:
         self._structure = structure if lines is None else None
         self.timings = {} if timings is None else timings
         self.scale = float(scale)
+        self.graphics_small = graphics_small
 
     def resolve(self) -> "Detections":
         """Compute the deferred straight lines and ellipses now (a lazy detection,
@@ -211,6 +216,8 @@ class Detections:
                 lm.small = lm.small.copy()
             lm.buf = np.empty_like(lm.buf)
             lm.done = False
+        if self.graphics_small is not None:
+            self.graphics_small = self.graphics_small.copy()
         return self
 
     @property
