@@ -271,11 +271,24 @@ class PaintView:
 def graphics_mask(detections, size) -> np.ndarray | None:
     """(H, W) uint8, 255 on the frame's screen graphics (a score box, a
     caption: ``detections.graphics_small``) grown by a cell of their small
-    grid, at ``size`` (width, height); None where the detector found none."""
+    grid, at ``size`` (width, height); None where there are none.
+
+    Only the graphics inside the picture count: broadcast graphics sit
+    within its safe area, and a band the detector takes for one along the
+    frame's edge is as often the pitch's surround (on
+    ``artificial_turf_multisport`` the benches at the bottom right, 2-4 rows
+    of the 90 on the frame's last row, beside the near touchline)."""
     graphics = getattr(detections, "graphics_small", None)
     if graphics is None:
         return None
-    return cv2.resize(cv2.dilate(graphics, np.ones((3, 3), np.uint8)), (int(size[0]), int(size[1])), interpolation=cv2.INTER_NEAREST)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(graphics, connectivity=8)
+    h, w = graphics.shape
+    x, y, bw, bh = (stats[1:, i] for i in range(4))
+    inside = np.flatnonzero((x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)) + 1
+    if not len(inside):
+        return None
+    kept = np.isin(labels, inside).astype(np.uint8) * 255
+    return cv2.resize(cv2.dilate(kept, np.ones((3, 3), np.uint8)), (int(size[0]), int(size[1])), interpolation=cv2.INTER_NEAREST)
 
 
 def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float = PAINT_CONTRAST, bright: np.ndarray | None = None) -> PaintView:

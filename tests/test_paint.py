@@ -1223,3 +1223,23 @@ def test_a_still_whose_default_size_missed_its_camera_is_made_again_from_the_sca
     truth = Camera(K=S @ ref.K, R=ref.R, t=ref.t, dist=ref.dist)
     d = distance_1280(truth, est.camera, (960, 540), pitch, est.info["pitch"].model())
     assert d <= MAX_DISTANCE_1280, d
+
+
+def test_graphics_mask_keeps_the_graphics_inside_the_picture():
+    # a screen graphic inside the picture is cut out of the paint, grown by a
+    # cell of its grid; a band the grass detector takes for a graphic along
+    # the frame's edge (the turf clip's benches at the bottom right) is not
+    from types import SimpleNamespace
+
+    from arstream.initialise import graphics_mask
+
+    small = np.zeros((90, 160), np.uint8)
+    assert graphics_mask(SimpleNamespace(graphics_small=None), (640, 360)) is None
+    small[86:90, 100:160] = 255  # on the last row and column
+    assert graphics_mask(SimpleNamespace(graphics_small=small), (640, 360)) is None
+    small[76:83, 7:40] = 255  # a caption
+    cut = graphics_mask(SimpleNamespace(graphics_small=small), (640, 360))
+    assert cut.shape == (360, 640)
+    ys, xs = np.nonzero(cut)
+    assert (xs.min(), xs.max(), ys.min(), ys.max()) == (6 * 4, 41 * 4 - 1, 75 * 4, 84 * 4 - 1)
+    assert not cut[340:, 400:].any()
