@@ -281,7 +281,7 @@ def graphics_mask(detections, size) -> np.ndarray | None:
     graphics = getattr(detections, "graphics_small", None)
     if graphics is None:
         return None
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(graphics, connectivity=8)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(graphics, connectivity=8)
     h, w = graphics.shape
     x, y, bw, bh = (stats[1:, i] for i in range(4))
     inside = np.flatnonzero((x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)) + 1
@@ -302,9 +302,9 @@ def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float
     H, W = image.shape[:2]
     grass = getattr(detections, "grass_mask", None)
     region = cv2.dilate(grass, np.ones((3, 3), np.uint8)) if grass is not None else None
-    graphics = graphics_mask(detections, (W, H))
-    if region is not None and graphics is not None:
-        region = cv2.subtract(cv2.resize(region, (W, H), interpolation=cv2.INTER_NEAREST) if region.shape[:2] != (H, W) else region, graphics)
+    graphics = None if region is None else graphics_mask(detections, (region.shape[1], region.shape[0]))
+    if graphics is not None:
+        region = cv2.subtract(region, graphics)
     mask = paint_mask(image, region, contrast=contrast)
     step = 2 if W > 1000 else 1
     ys, xs = np.nonzero(mask[::step, ::step])
