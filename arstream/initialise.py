@@ -1276,7 +1276,7 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     # (square pixels for the solver: a frame of other pixels stretched, bicubic)
     frame = cv2.resize(image, an.scaled, interpolation=cv2.INTER_CUBIC) if an.scaling else image
     work = np.ascontiguousarray(frame[y0:y1, x0:x1]) if an.cropped else frame
-    est = register_frame(detect(work), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch, estimate_size=pitch is None, workers=workers)
+    est = register_frame(detect(work, enlarged=an.enlarged), (an.w, an.h), principal_point=an.principal_point, image=work, pitch=pitch, estimate_size=pitch is None, workers=workers)
     if pitch is not None and est.camera is not None:
         est.info["pitch"] = PitchSize(pitch.length, pitch.width, source="given")
     if est.camera is None:

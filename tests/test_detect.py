@@ -231,6 +231,9 @@ def test_bad_images(image, message):
         ((1280, 720), {"tau": -1}, "tau"),
         ((1280, 720), {"min_grass": 1.5}, "min_grass"),
         (("wide", 720), {}, "integers"),
+        ((1024, 576), {"enlarged": (0.0, 1.0)}, "enlarged must be two positive numbers"),
+        ((1024, 576), {"enlarged": (float("nan"), 1.0)}, "enlarged must be two positive numbers"),
+        ((1024, 576), {"enlarged": 1.42}, "enlarged must be two numbers"),
     ],
 )
 def test_bad_detector_options(args, kwargs, message):
@@ -241,6 +244,69 @@ def test_bad_detector_options(args, kwargs, message):
 def test_detector_rejects_a_frame_of_another_size():
     with pytest.raises(ValueError, match="expects 640x360"):
         Detector(640, 360).process(np.zeros((720, 1280, 3), np.uint8))
+
+
+def _staircase_line(amp, W=720, H=576, seed=0):
+    """A 720 x 576 frame of grass with a near-vertical 3 px white line whose
+    centre steps ``amp`` px left and right every 8 rows (a compressed line's
+    block staircase), and its centre x at each row."""
+    rng = np.random.default_rng(seed)
+    img = np.clip(np.array([40, 130, 60]) + rng.normal(0, 2, (H, W, 3)), 0, 255)
+    ys = np.arange(H)
+    xc = 250 + 0.15 * ys + amp * np.where((ys // 8) % 2 == 0, 1.0, -1.0)
+    prof = np.clip(1.5 - np.abs(np.arange(W)[None, :] - xc[:, None]), 0, 1)[..., None]
+    return np.clip(img * (1 - prof) + 235.0 * prof, 0, 255).astype(np.uint8), xc
+
+
+@pytest.mark.parametrize("amp, found", [(0.25, True), (0.3, True), (0.35, False)])
+def test_a_stretched_line_is_judged_straight_in_its_source_s_pixels(amp, found):
+    # an anamorphic SD still (720 x 576, pixel aspect 64:45) is registered on
+    # square pixels, stretched to 1024 x 576: the stretch widens a compressed
+    # line's wobble along x with the line, and a halfway line that is straight
+    # within the 0.3 px allowed at 720 x 576 was, stretched, no line (a
+    # ``real-sd`` still of a centre circle and the halfway line was lost).
+    # Told the enlargement, the detector judges it in the source's pixels: the
+    # same lines as at the source's size, no more
+    img, xc = _staircase_line(amp)
+    ex = 1024 / 720
+    wide = cv2.resize(img, (1024, 576), interpolation=cv2.INTER_CUBIC)
+    assert bool(detect(img).lines) == found
+    assert detect(wide).lines == []  # (enlarged, unannounced: over the limit)
+    lines = detect(wide, enlarged=(ex, 1.0)).lines
+    assert bool(lines) == found
+    if found:
+        (line,) = lines
+        ys = np.arange(20, 556, 8.0)
+        x_true = (250 + 0.15 * ys + 0.5) * ex - 0.5  # (the staircase's mid-line, in the stretched frame)
+        a, b, c = line.line
+        assert np.max(np.abs(a * x_true + b * ys + c)) < 0.5
+
+
+def test_the_source_s_pixels_relax_only_the_stretched_direction():
+    # group_lines' limits in source pixels: a line's wobble along its normal
+    # is divided by the enlargement along that normal. Stretched along x, a
+    # near-vertical line's sideways wobble (0.35 stretched px, 0.25 of the
+    # source's) passes; a near-horizontal line's (0.35 px along y, unstretched)
+    # does not, nor does a chord of a circle (a curve in any pixels)
+    from arstream.detect.segments import group_lines
+
+    t = np.arange(0.0, 400.0, 0.5)
+    wobble = 0.35 * np.where((t // 8) % 2 == 0, 1.0, -1.0)
+    src = (1 / 1.42, 1.0)
+
+    def found(pts, nrm, **kw):
+        groups, _ = group_lines(pts, nrm, (1024, 576), min_length=50.0, max_gap=30.0, **kw)
+        return len(groups)
+
+    vertical = np.column_stack([300 + wobble, 80 + t]), np.tile([1.0, 0.0], (len(t), 1))
+    horizontal = np.column_stack([300 + t, 280 + wobble]), np.tile([0.0, 1.0], (len(t), 1))
+    assert found(*vertical) == 0 and found(*vertical, source=src) == 1
+    assert found(*horizontal) == 0 and found(*horizontal, source=src) == 0
+    phi = np.linspace(-0.35, 0.35, 800)  # (a 280 px chord of a 400 px circle: sagitta 24 px)
+    arc = np.column_stack([500 + 400 * np.sin(phi), 800 - 400 * np.cos(phi)])
+    assert found(arc, np.column_stack([np.sin(phi), -np.cos(phi)]), source=src) == 0
+    with pytest.raises(ValueError, match="positive"):
+        group_lines(*vertical, (1024, 576), min_length=50.0, max_gap=30.0, source=(0.0, 1.0))
 
 
 @pytest.mark.parametrize("fill", [(0, 0, 0), (128, 128, 128), (255, 255, 255)])

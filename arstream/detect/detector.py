@@ -75,6 +75,16 @@ class Detector:
         99.6 -> 94.4 % within 5 px; ``israel_league_wide``'s size choice
         tipped to 104 x 72.6 m), which is not yet tuned to it
         (bench/README.md "Stop 85", "Stop 86").
+    enlarged : (ex, ey), frame pixels per pixel of the frame's source along
+        x and y, where the frame was enlarged from it (a still of anamorphic
+        SD pixels stretched to square ones, 720 x 576 shown 1024 x 576:
+        (1.42, 1); :attr:`arstream.pipeline.stages.Analysis.enlarged`). A
+        straight line's thickness and straightness tests
+        (:func:`arstream.detect.segments.group_lines`) are then judged in
+        the source's pixels: the stretch widens a compressed line's wobble
+        along with the line (a halfway line of a ``real-sd`` still, 0.23
+        frame pixels RMS about its fit at 720 x 576, 0.32 when stretched,
+        over the 0.3 allowed, was no line). Below 1 counts as 1.
     """
 
     def __init__(
@@ -90,6 +100,7 @@ class Detector:
         max_ellipses: int = 3,
         thin_lines: bool = False,
         shade: bool = False,
+        enlarged: tuple[float, float] = (1.0, 1.0),
     ):
         try:
             width, height = int(width), int(height)
@@ -105,6 +116,13 @@ class Detector:
             raise ValueError(f"tau must be positive, got {tau}")
         if not 0.0 < min_grass < 1.0:
             raise ValueError(f"min_grass must be in (0, 1), got {min_grass}")
+        try:
+            ex, ey = (float(v) for v in enlarged)
+        except (TypeError, ValueError):
+            raise ValueError(f"enlarged must be two numbers (x, y), got {enlarged!r}") from None
+        if not (np.isfinite(ex) and np.isfinite(ey) and ex > 0 and ey > 0):
+            raise ValueError(f"enlarged must be two positive numbers, got {enlarged!r}")
+        self.enlarged = (max(1.0, ex), max(1.0, ey))
         self.width, self.height = width, height
         self.thin_lines = bool(thin_lines)
         self.shade = bool(shade)
@@ -360,7 +378,8 @@ class Detector:
         w, h = self.work_size
         t2 = time.perf_counter()
         groups, used = group_lines(
-            pts, nrm, (w, h), labels=labels, min_length=self.min_line_length / self.factor, max_gap=max(16.0, 0.2 * w), min_points=12
+            pts, nrm, (w, h), labels=labels, min_length=self.min_line_length / self.factor, max_gap=max(16.0, 0.2 * w), min_points=12,
+            source=(self.factor / self.enlarged[0], self.factor / self.enlarged[1]),
         )
         # each group's total-least-squares line in frame pixels (geometry.lines.fit_line
         # of each, in one compiled pass)

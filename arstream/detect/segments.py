@@ -53,6 +53,7 @@ def group_lines(
     max_lines: int = 24,
     max_sagitta: float = 0.5,
     max_rms: float = 0.3,
+    source: tuple[float, float] = (1.0, 1.0),
 ) -> tuple[list[LineGroup], np.ndarray]:
     """Group ridge points into long straight lines.
 
@@ -69,6 +70,14 @@ def group_lines(
         the residuals over the line's length (more means a curve)
     max_rms : largest RMS distance (px) of the support from the line (a chord
         of a gentle curve has a larger spread than a painted line)
+    source : (sx, sy) source pixels per pixel of ``pts`` along x and y, where
+        the image was enlarged from its source (a still of anamorphic pixels
+        stretched to square ones: 720 / 1024 along x). ``max_rms`` and
+        ``max_sagitta`` are then source pixels: the enlargement widens a
+        line's wobble (compression's, the ridge centres') as it widens the
+        line, along the line's normal (a, b) by ``1 / hypot(a sx, b sy)``.
+        Values above 1 (a shrunk image) count as 1: the limits are never
+        tighter than the image's own pixels.
 
     Returns
     -------
@@ -85,6 +94,9 @@ def group_lines(
     n_rho = int(math.ceil(2 * rmax / rho_bin)) + 1
     pts = np.ascontiguousarray(pts, np.float64)
     nrm = np.ascontiguousarray(nrm, np.float64)
+    src_x, src_y = (min(1.0, float(v)) for v in source)
+    if not (src_x > 0 and src_y > 0):
+        raise ValueError(f"source pixels per pixel must be positive, got {tuple(source)}")
     thr = max(min_points, 0.5 * min_length)
     cand, order_t, starts = hough_votes(pts, nrm, cx, cy, rmax, rho_bin, _TH_BINS, n_rho, _PAD, float(thr), 4 * max_lines)
     if len(cand) == 0:
@@ -94,7 +106,7 @@ def group_lines(
     members, offsets, geo, used = hough_lines(
         pts, nrm, lab, has_labels, int(lab.max()) + 1,
         order_t, starts, cand, _TH_BINS, n_rho, rho_bin, rmax, cx, cy, _HALF,
-        int(min_points), float(min_length), float(max_gap), float(tol), int(max_lines), float(max_sagitta), float(max_rms),
+        int(min_points), float(min_length), float(max_gap), float(tol), int(max_lines), float(max_sagitta), float(max_rms), src_x, src_y,
     )  # fmt: skip
     groups = [
         LineGroup(members[offsets[k] : offsets[k + 1]], g[:3].copy(), g[3:5].copy(), float(g[5]), float(g[6]), float(g[7]))

@@ -167,6 +167,20 @@ class Analysis:
         return [round(x0 * self.sx), round(y0 * self.sy), round(x1 * self.sx), round(y1 * self.sy)]
 
     @property
+    def enlarged(self) -> tuple[float, float]:
+        """(ex, ey) analysis pixels per frame pixel along x and y where the
+        analysis frame is the frame enlarged (above 1; 1 where shrunk or kept):
+        the detector's ``enlarged`` (an anamorphic SD still, 720 x 576 at pixel
+        aspect 64:45, is analysed at 1024 x 576: (1.42, 1)).
+
+        >>> Analysis(720, 576, None, pixel_aspect=64 / 45).enlarged
+        (1.4222222222222223, 1.0)
+        >>> Analysis(1280, 720, 640).enlarged
+        (1.0, 1.0)
+        """
+        return (max(1.0, 1.0 / self.sx), max(1.0, 1.0 / self.sy))
+
+    @property
     def principal_point(self) -> np.ndarray:
         """(2,) the frame's centre in analysis pixels: the solver's principal point."""
         return np.linalg.solve(self.S, [(self.W - 1) / 2, (self.H - 1) / 2, 1.0])[:2]
@@ -273,7 +287,7 @@ class DetectStage(Stage):
         self.hints = hints  # (frame) -> dict of the detector's hints as of then
         if detector is None:
             cls = _optional("arstream.detect", "Detector")
-            detector = cls(self.analysis.w, self.analysis.h) if cls is not None else None
+            detector = cls(self.analysis.w, self.analysis.h, enlarged=self.analysis.enlarged) if cls is not None else None
         self.detector = detector
         self.available = detector is not None
 

@@ -69,7 +69,7 @@ def _top_label(labels, idx, n, counts):
 @nb.njit(**_JIT)
 def hough_lines(
     pts, nrm, labels, has_labels, n_labels, order_t, starts, cand, n_th, n_rho, rho_bin, rmax, cx, cy, half_bins,
-    min_points, min_length, max_gap, tol, max_lines, max_sagitta, max_rms,
+    min_points, min_length, max_gap, tol, max_lines, max_sagitta, max_rms, src_x, src_y,
 ):
     """The peak loop of :func:`arstream.detect.segments.group_lines`.
 
@@ -82,7 +82,10 @@ def hough_lines(
     over ``max_gap``, and pass when long enough, dense enough (0.4 points per
     px), thin enough (rms <= ``max_rms``) and straight (sagitta of a quadratic
     through the residuals <= ``max_sagitta``). A chain (``labels``) that fails
-    twice is not tried again.
+    twice is not tried again. ``src_x``, ``src_y`` (at most 1): source pixels
+    per working pixel of an enlarged image; the thickness and straightness
+    of a line of normal (a, b) are measured in source pixels (its residuals
+    times ``hypot(a src_x, b src_y)``).
 
     Returns
     -------
@@ -190,8 +193,10 @@ def hough_lines(
         if length < min_length or nm < 0.4 * length:
             continue
         # the chord of a gentle curve (or a smeared band) is too thick; else
-        # straightness: a quadratic through the residuals, peak-to-peak over the length
-        curved = rms > max_rms
+        # straightness: a quadratic through the residuals, peak-to-peak over the
+        # length (both in source pixels: an enlarged image enlarges the wobble)
+        g = np.sqrt((a * src_x) ** 2 + (b * src_y) ** 2)
+        curved = rms * g > max_rms
         if not curved:
             qr = 0.0
             qq = 0.0
@@ -201,7 +206,7 @@ def hough_lines(
                 q2 = uu * uu - 1.0 / 3.0
                 qr += q2 * (pts[j, 0] * a + pts[j, 1] * b + cc)
                 qq += q2 * q2
-            curved = abs(qr / max(qq, 1e-12)) > max_sagitta
+            curved = abs(qr / max(qq, 1e-12)) * g > max_sagitta
         if curved:
             if has_labels:
                 top, cnt = _top_label(labels, piece, nm, counts)
@@ -325,5 +330,5 @@ def warm_up() -> None:
     """Load (or compile) this module's kernels by calling them once on tiny inputs."""
     p = np.zeros((1, 2))
     z = np.zeros(1, np.int64)
-    hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3)
+    hough_lines(p, p, z, False, 1, z, np.zeros(3, np.int64), z, 2, 2, 2.0, 1.0, 0.0, 0.0, 1, 12, 1.0, 1.0, 1.0, 1, 0.5, 0.3, 1.0, 1.0)
     hough_votes(p, p, 0.0, 0.0, 1.0, 2.0, 4, 3, 1, 1.0, 4)
