@@ -273,22 +273,40 @@ def graphics_mask(detections, size) -> np.ndarray | None:
     caption: ``detections.graphics_small``) grown by a cell of their small
     grid, at ``size`` (width, height); None where there are none.
 
-    Only the graphics inside the picture count: broadcast graphics sit
-    within its safe area, and a band the detector takes for one along the
-    frame's edge is as often the pitch's surround (on
-    ``artificial_turf_multisport`` the benches at the bottom right, 2-4 rows
-    of the 90 on the frame's last row, beside the near touchline)."""
+    A band the detector takes for a graphic along the frame's top or bottom
+    edge is left: there it is as often the pitch's surround, beyond a
+    touchline (on ``artificial_turf_multisport`` the benches at the bottom
+    right, 2-4 rows of the 90 on the frame's last row, beside the near
+    touchline). One at a side edge is a graphic: a caption's bar may start at
+    the picture's left edge (``real-penalty`` 104 frame 125, whose outline
+    was otherwise taken for paint, and the still lost)."""
     graphics = getattr(detections, "graphics_small", None)
     if graphics is None:
         return None
     _, labels, stats, _ = cv2.connectedComponentsWithStats(graphics, connectivity=8)
-    h, w = graphics.shape
-    x, y, bw, bh = (stats[1:, i] for i in range(4))
-    inside = np.flatnonzero((x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)) + 1
+    h = graphics.shape[0]
+    y, bh = stats[1:, cv2.CC_STAT_TOP], stats[1:, cv2.CC_STAT_HEIGHT]
+    inside = np.flatnonzero((y > 0) & (y + bh < h)) + 1
     if not len(inside):
         return None
     kept = np.isin(labels, inside).astype(np.uint8) * 255
     return cv2.resize(cv2.dilate(kept, np.ones((3, 3), np.uint8)), (int(size[0]), int(size[1])), interpolation=cv2.INTER_NEAREST)
+
+
+def bare_grass(detections, size) -> np.ndarray | None:
+    """(H, W) bool at ``size`` (width, height): the detector's grass mask less
+    its screen graphics (:func:`graphics_mask`), where a painted marking
+    would show; None without a grass mask. A still's sizes are judged on it
+    (:func:`arstream.support.paint_dispute`'s ``ground``)."""
+    grass = getattr(detections, "grass_mask", None)
+    if grass is None:
+        return None
+    W, H = int(size[0]), int(size[1])
+    ground = (grass if grass.shape[:2] == (H, W) else cv2.resize(grass, (W, H), interpolation=cv2.INTER_NEAREST)) > 0
+    graphics = graphics_mask(detections, size)
+    if graphics is not None:
+        ground &= graphics == 0
+    return ground
 
 
 def paint_view(image: np.ndarray, detections, *, reach: int = 2, contrast: float = PAINT_CONTRAST, bright: np.ndarray | None = None) -> PaintView:
@@ -949,7 +967,7 @@ def paint_seen(view: PaintView, detections) -> str:
     return ", ".join([count(len(view.lines), "straight line"), count(len(detections.ellipses), "centre circle"), count(len(view.arcs), "penalty arc")])
 
 
-def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7):
+def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch: PitchModel, min_support: float = 0.7, *, ground: np.ndarray | None = None):
     """A still's pitch size and its camera (:func:`register_frame` with
     ``estimate_size``).
 
@@ -965,7 +983,9 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     many on paint as the estimate's (:func:`arstream.pitch_size.size_dispute`).
     On a real frame paint the markings do not cover (the boards, another
     sport's lines) can draw the fit off, and the paint, not the fit's own
-    residuals, judges a camera. The two cameras are compared point for point,
+    residuals, judges a camera (with ``ground``, also where it shows no
+    paint: a marking one camera draws on bare grass, missing there, that the
+    other draws wholly outside the picture). The two cameras are compared point for point,
     not by their line supports: those are shares of different points (on a
     realistic synthetic still of a 103.5 x 74 m pitch the 105 x 68 camera
     scores 0.989 and is drawn 14.9 px off; the estimate's, at 104.6 x 72.7,
@@ -982,6 +1002,10 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     view : PaintView of the frame
     size : (width, height) of the frame, pixels
     pitch : PitchModel the camera was made at
+    ground : (H, W) bool or None, the frame's bare grass (:func:`bare_grass`):
+        a marking one camera draws there, missing, that the other draws
+        wholly outside the picture, counts against it in the point-for-point
+        comparison (:func:`arstream.support.paint_dispute`)
 
     Returns
     -------
@@ -998,8 +1022,8 @@ def size_from_view(camera: Camera, support: float, view: PaintView, size, pitch:
     sup, spread = backed_support(got.cameras[0], view.bright, other)
     if sup is None or paint_verdict(got.cameras[0], sup, spread, view, size, other, min_support, MIN_SIDES) is not None:
         return kept
-    dispute = size_dispute([camera, got.cameras[0]], [pitch, other], view.bright)(0, 1)
-    if dispute.first >= STILL_GAIN_RATIO * dispute.second:
+    dispute = size_dispute([camera, got.cameras[0]], [pitch, other], view.bright, ground=ground)(0, 1)
+    if dispute.for_first >= STILL_GAIN_RATIO * dispute.for_second:
         return kept
     # (the camera is returned on its own: the size's copy would be in the frame's pixels it was fitted in)
     return got.cameras[0], replace(got, cameras=()), sup
@@ -1112,7 +1136,8 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     if graphics is not None:
         luma = luma & (graphics == 0)
     view = paint_view(image, detections)
-    camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support)
+    ground = bare_grass(detections, size)
+    camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support, ground=ground)
     own = replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
     fits = _line_support(own, luma, made_at.model(pitch.line_width))
     # (a camera with too few markings in view for a line support is no poor
@@ -1191,11 +1216,12 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     est = _default_from_scan(est, found, detections, size, view, pitch, estimate_k1, min_support)
     ests = [est, *found]
     models = [est.info["pitch"].model(pitch.line_width)] + [PitchModel(*sz, pitch.line_width) for sz in sizes[1:]]
-    scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip(ests, models)], size_dispute([e.camera for e in ests], models, luma))
+    ground = bare_grass(detections, size)
+    scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip(ests, models)], size_dispute([e.camera for e in ests], models, luma, ground=ground))
     if scan.chosen == 0:
         return est, replace(est.info["pitch"], scan=scan)
     best = found[scan.chosen - 1]
-    camera, got, sup = size_from_view(best.camera, best.info.get("support"), view, size, PitchModel(*scan.size, pitch.line_width), min_support)
+    camera, got, sup = size_from_view(best.camera, best.info.get("support"), view, size, PitchModel(*scan.size, pitch.line_width), min_support, ground=ground)
     if got.source == "default":
         got = PitchSize(*scan.size, source="scanned", views=1)
     return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
@@ -1240,7 +1266,7 @@ def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detecti
     old = est.info.get("support")
     if paint_score(rb.camera, sb, view, size, model) <= paint_score(est.camera, old or 0.0, view, size, model) + PAINT_SCORE_MARGIN:
         return est
-    camera, got, sup = size_from_view(rb.camera, sb, view, size, pitch, min_support)
+    camera, got, sup = size_from_view(rb.camera, sb, view, size, pitch, min_support, ground=bare_grass(detections, size))
     return CameraEstimate(est.frame, est.pts, "ok", camera, rb.confidence, {**est.info, "rms": rb.rms, "n_visible": rb.n_visible, "support": sup, "pitch": got})
 
 
@@ -1261,7 +1287,8 @@ def register_image(image: np.ndarray, *, pixel_aspect: float = 1.0, pitch: Pitch
     analysed on its own, with the frame's principal point (its centre), at
     the analysis size (:class:`arstream.pipeline.stages.Analysis` with the
     picture as its ``area``, as ``process`` analyses a clip: square pixels
-    for the solver, ``pixel_aspect`` mapped back), then
+    for the solver, ``pixel_aspect`` mapped back; the detector told how much
+    that enlarged the picture, :attr:`Analysis.enlarged`), then
     :func:`register_frame` with the picture; the camera is mapped back to the
     whole frame. ``workers``: the processes a scan of sizes runs on
     (:func:`size_from_scan`; ``arstream register`` uses every core).

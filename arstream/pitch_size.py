@@ -654,7 +654,11 @@ def choose_still_size(sizes, supports, dispute) -> SizeScan:
     markings (``dispute``): a size is *higher* than another when its camera
     lays at least :data:`STILL_GAIN_RATIO` times as many of the points the
     two dispute on paint as the other's does, and more of them by
-    :data:`SCAN_MARGIN` of the points in view of either. A size may replace
+    :data:`SCAN_MARGIN` of the points in view of either; the points the
+    other's camera draws on bare grass, of a marking missing there that
+    this one's draws wholly outside the picture, count for it too
+    (:attr:`arstream.support.PaintDispute.for_second`, with the ``dispute``'s
+    ``ground``: :func:`size_dispute`). A size may replace
     the default when its camera fits the frame (line support at least
     :data:`STILL_SUPPORTED`) and is higher than the default's (a default
     without a camera is kept: no baseline). Of those sizes, the nearest to it
@@ -696,7 +700,7 @@ def choose_still_size(sizes, supports, dispute) -> SizeScan:
         if s[j] is None or s[k] is None:
             return False
         p = dispute(j, k)
-        return p.second >= STILL_GAIN_RATIO * p.first and p.second - p.first >= SCAN_MARGIN * p.in_view
+        return p.for_second >= STILL_GAIN_RATIO * p.for_first and p.for_second - p.for_first >= SCAN_MARGIN * p.in_view
 
     def up(k: int) -> bool:
         # (the scan's camera must itself fit the frame; a default without a
@@ -723,7 +727,7 @@ def still_scan_sizes(pitch: PitchModel) -> list[tuple[float, float]]:
     return [d] + [(L, W) for L in SCAN_LENGTHS for W in SCAN_WIDTHS if (L, W) != d]
 
 
-def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False):
+def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False, ground: np.ndarray | None = None):
     """The ``dispute`` of :func:`choose_still_size` for one still: camera
     ``j`` at pitch ``j`` against camera ``k`` at pitch ``k`` on the frame's
     paint, on the same samples of the same markings
@@ -736,15 +740,18 @@ def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False):
     mask : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
     in_both : only the points in view of both cameras (a clip's scan; as
         :func:`arstream.support.paint_dispute`)
+    ground : (H, W) bool or None, the frame's bare grass: markings one
+        camera draws there, missing, that the other draws wholly outside the
+        picture count against it (:func:`arstream.support.paint_dispute`)
 
     Returns
     -------
     callable ``(j, k) -> PaintDispute``
     """
-
     def dispute(j: int, k: int):
         pj, pk = corresponding_points(pitches[j], pitches[k])
-        return paint_dispute(cameras[j], pj, cameras[k], pk, mask, in_both=in_both)
+        ids = None if ground is None else ModelSamples.from_pitch(pitches[j], SPACING).marking
+        return paint_dispute(cameras[j], pj, cameras[k], pk, mask, in_both=in_both, ground=ground, markings=ids)
 
     return dispute
 

@@ -73,6 +73,7 @@ __all__ = [
     "REACH",
     "SPACING",
     "MIN_POINTS",
+    "MISSING_SHARE",
     "frame_mask",
     "Support",
     "Jitter",
@@ -119,6 +120,10 @@ ON_LINES = 0.8
 #: levels (0..255) by which a line's crest must exceed the picture on both
 #: of its sides (:func:`on_lines`)
 LINE_CONTRAST = 6.0
+#: a marking a camera draws on the grass is *missing* where at most this
+#: share of its points in view lie on paint (:func:`paint_dispute`'s
+#: ``ground``): its paint is nowhere along it, not faint or hidden in places
+MISSING_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -439,23 +444,46 @@ class PaintDispute:
         on the same place (more than ``REACH`` px apart, or one of them out of
         the image)
     in_view : int, points in view of either camera
+    first_missing, second_missing : int, points the first (second) camera
+        lays in the image on bare grass, of a marking missing there (at most
+        :data:`MISSING_SHARE` of its points in view on paint) that the other
+        lays wholly outside the image (0 unless :func:`paint_dispute` was
+        given the ``ground``)
     """
 
     first: int
     second: int
     disputed: int
     in_view: int
+    first_missing: int = 0
+    second_missing: int = 0
 
     def __add__(self, other: "PaintDispute") -> "PaintDispute":
         """The counts of two frames' disputes (or two sets of points) together."""
-        return PaintDispute(self.first + other.first, self.second + other.second, self.disputed + other.disputed, self.in_view + other.in_view)
+        return PaintDispute(
+            self.first + other.first, self.second + other.second, self.disputed + other.disputed, self.in_view + other.in_view, self.first_missing + other.first_missing, self.second_missing + other.second_missing
+        )
 
     def swapped(self) -> "PaintDispute":
         """The same dispute with the cameras' roles exchanged."""
-        return PaintDispute(self.second, self.first, self.disputed, self.in_view)
+        return PaintDispute(self.second, self.first, self.disputed, self.in_view, self.second_missing, self.first_missing)
+
+    @property
+    def for_first(self) -> int:
+        """The evidence for the first camera: the disputed points only it lays
+        on paint, and the second's points on bare grass of a marking missing
+        there that the first draws wholly outside the picture."""
+        return self.first + self.second_missing
+
+    @property
+    def for_second(self) -> int:
+        """The evidence for the second camera (:attr:`for_first`, roles exchanged)."""
+        return self.second + self.first_missing
 
 
-def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, second_points: np.ndarray, mask: np.ndarray, *, in_both: bool = False) -> PaintDispute:
+def paint_dispute(
+    first: Camera, first_points: np.ndarray, second: Camera, second_points: np.ndarray, mask: np.ndarray, *, in_both: bool = False, ground: np.ndarray | None = None, markings: np.ndarray | None = None
+) -> PaintDispute:
     """Which of two cameras lays more of the same markings on a frame's paint.
 
     The line support is a share of the points each camera has in view, so
@@ -486,6 +514,21 @@ def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, secon
         "Stop 63"). A still's judgement keeps the default (a camera that
         leaves a marking out of the image is what it must see); a clip's scan
         of sizes uses this.
+    ground : (H, W) bool or None, the bare grass where a marking would show
+        (the pitch's grass mask less the screen graphics), with ``markings``:
+        the points one camera draws in the image, off paint, on that grass,
+        of a marking missing where it draws it (at most :data:`MISSING_SHARE`
+        of that marking's points in view on paint) that the other draws
+        wholly outside the image, count against the first
+        (``first_missing``/``second_missing``). A camera that draws a
+        touchline across the grass of a frame's corner where there is none
+        says something the frame denies; one that draws it outside the
+        picture says nothing the frame can deny (``real-sd`` 101 frame 150: at
+        105 x 68 the near touchline drawn across 23 points of bare grass in
+        the bottom corner, at 100 x 72, the right width, below the frame).
+        A marking faint in places has paint along some of it and is not
+        missing. Not with ``in_both``.
+    markings : (N,) int, the marking of each point (:class:`arstream.solve.ModelSamples`' ``marking``)
 
     Returns
     -------
@@ -500,7 +543,33 @@ def paint_dispute(first: Camera, first_points: np.ndarray, second: Camera, secon
     with np.errstate(invalid="ignore"):
         same = ina & inb & (np.max(np.abs(pa - pb), axis=1) <= REACH)
     disputed = either & ~same
-    return PaintDispute(int(np.count_nonzero(disputed & ona & ~onb)), int(np.count_nonzero(disputed & onb & ~ona)), int(np.count_nonzero(disputed)), int(np.count_nonzero(either)))
+    missing = (0, 0)
+    if ground is not None and markings is not None and not in_both:
+        ids = np.asarray(markings)
+        if len(ids) != len(pa):
+            raise ValueError(f"one marking per point: {len(pa)} points, {len(ids)} markings")
+        missing = (_missing(pa, ina, ona, inb, ids, ground), _missing(pb, inb, onb, ina, ids, ground))
+    return PaintDispute(int(np.count_nonzero(disputed & ona & ~onb)), int(np.count_nonzero(disputed & onb & ~ona)), int(np.count_nonzero(disputed)), int(np.count_nonzero(either)), *missing)
+
+
+def _missing(pixels: np.ndarray, inside: np.ndarray, on: np.ndarray, other_inside: np.ndarray, ids: np.ndarray, ground: np.ndarray) -> int:
+    """How many of one camera's points in view (``inside``, (N,) bool) lie off
+    paint (``on``) on ``ground``, of a marking missing there (at most
+    :data:`MISSING_SHARE` of its points in view on paint) that the other
+    camera draws wholly outside the picture (none of it in ``other_inside``).
+    A marking both draw in view is not counted: the samples of two sizes'
+    markings slide along a line with the size, and at the picture's edge one
+    camera's last samples of a line the other also draws are outside the
+    other's view whichever is right. ``pixels`` (N, 2) the camera's
+    projections, ``ids`` the markings."""
+    m = int(ids.max()) + 1
+    n = np.bincount(ids[inside], minlength=m)
+    hit = np.bincount(ids[inside & on], minlength=m)
+    gone = (n > 0) & (hit <= MISSING_SHARE * n) & (np.bincount(ids[other_inside], minlength=m) == 0)
+    if not gone.any():
+        return 0
+    _, bare = _lookup(pixels, np.asarray(ground, bool))
+    return int(np.count_nonzero(inside & ~on & bare & gone[ids]))
 
 
 def grass_region(grass: np.ndarray, reach: float = GRASS_REACH) -> np.ndarray:

@@ -1227,8 +1227,10 @@ def test_a_still_whose_default_size_missed_its_camera_is_made_again_from_the_sca
 
 def test_graphics_mask_keeps_the_graphics_inside_the_picture():
     # a screen graphic inside the picture is cut out of the paint, grown by a
-    # cell of its grid; a band the grass detector takes for a graphic along
-    # the frame's edge (the turf clip's benches at the bottom right) is not
+    # cell of its grid, and so is a caption whose bar starts at the frame's
+    # left edge; a band the grass detector takes for a graphic along the
+    # frame's top or bottom edge (the turf clip's benches at the bottom
+    # right) is not
     from types import SimpleNamespace
 
     from arstream.initialise import graphics_mask
@@ -1243,3 +1245,9 @@ def test_graphics_mask_keeps_the_graphics_inside_the_picture():
     ys, xs = np.nonzero(cut)
     assert (xs.min(), xs.max(), ys.min(), ys.max()) == (6 * 4, 41 * 4 - 1, 75 * 4, 84 * 4 - 1)
     assert not cut[340:, 400:].any()
+    small[2:6, 60:100] = 255  # a score box two rows below the top
+    small[0:3, 120:150] = 255  # (on the first row: the stands' edge, say)
+    small[40:46, 0:30] = 255  # a caption's bar from the left edge
+    cut = graphics_mask(SimpleNamespace(graphics_small=small), (640, 360))
+    assert cut[40 * 4 : 46 * 4, : 31 * 4].all() and cut[2 * 4 : 6 * 4, 60 * 4 : 100 * 4].all()
+    assert not cut[:4, 484:596].any() and not cut[340:, 400:].any()

@@ -238,6 +238,9 @@ _STILL_GRID = [(105, 68), (100, 64), (100, 68), (100, 72), (105, 64), (105, 72),
         # a higher support from markings left out of the image: the default lays 57 of the disputed points on paint, 110 x 68 4
         ((0.93, 0.75, None, 0.85, 0.82, 0.96, 0.84, 0.98, 0.97), {(0, 7): (57, 4), (0, 8): (50, 9), (0, 5): (10, 33)}, (105, 68)),
         ((0.90, 0.80, 0.80, 0.80, 0.80, 0.90, 0.80, 0.80, 0.80), {(0, 5): (5, 80)}, (105, 72)),  # twice and by the margin of the disputed points, at an equal support
+        # (j, k): (on paint only j, only k, j's points of a missing marking on bare grass that k draws outside the picture, k's)
+        ((0.90, 0.80, 0.80, 0.80, 0.80, 0.97, 0.80, 0.80, 0.80), {(0, 5): (5, 30, 40, 0)}, (105, 72)),  # the paint alone under the margin; the default's touchline drawn on bare grass carries it
+        ((0.90, 0.80, 0.80, 0.80, 0.80, 0.97, 0.80, 0.80, 0.80), {(0, 5): (5, 80, 0, 40)}, (105, 68)),  # the other draws a missing marking: 80 for it, 45 against, not twice
         ((0.90, 0.80, 0.80, 0.80, 0.80, 0.90, 0.80, 0.80, 0.80), {(0, 5): (5, 50)}, (105, 68)),  # 45 more of 1000 in view: under the margin
         ((0.76, None, None, 0.75, 0.70, 0.79, None, 0.74, 0.95), {(0, 8): (20, 200)}, (110, 72)),  # sizes without a camera left out
         ((None, 0.75, 0.79, 0.95, 0.70, 0.91, 0.70, 0.78, 0.90), {(0, 3): (0, 300)}, (105, 68)),  # no default camera: no baseline, nothing chosen
@@ -250,8 +253,8 @@ def test_choose_still_size_rule(supports, disputes, chosen):
 
     def dispute(j, k):
         assert supports[j] is not None and supports[k] is not None and np.isfinite(supports[j]) and np.isfinite(supports[k]), (j, k)
-        first, second = disputes.get((j, k), (0, 0))
-        return PaintDispute(first, second, first + second, 1000)
+        first, second, *missing = disputes.get((j, k), (0, 0))
+        return PaintDispute(first, second, first + second, 1000, *missing)
 
     got = choose_still_size(_STILL_GRID, supports, dispute)
     assert got.size == chosen and got.frames == 1
@@ -1506,6 +1509,31 @@ def test_register_image_scans_sizes_where_the_default_camera_is_wrong():
     # (register --json's "pitch" entry carries the scan: docs/formats.md)
     entry = json.loads(json.dumps(made_at.to_dict()))
     assert entry["scan"]["frames"] == 1 and entry["scan"]["sizes"][0] == [105.0, 68.0] and entry["scan"]["sizes"][entry["scan"]["chosen"]] == [105.0, 72.0]
+
+
+def test_a_touchline_drawn_on_bare_grass_counts_against_its_size():
+    # a realistic synthetic SD still of a 101 x 72 m pitch: the upper half of
+    # the centre circle and the halfway line, the near touchline just below
+    # the picture. At 105 x 68 the camera draws the near touchline across the
+    # bare grass of the bottom corner (line support 0.92); 105 x 72's lays
+    # more of the disputed points on paint (the circle, the halfway line),
+    # but by less than the scan's margin, and its near touchline is below
+    # the picture. That marking drawn where the frame shows grass and no
+    # paint is evidence against 105 x 68 (arstream.support.paint_dispute's
+    # ground); a camera that draws it outside the picture says nothing the
+    # frame denies
+    from arstream.initialise import register_image
+    from arstream.synth import SynthClip
+
+    clip = SynthClip("real-sd", seed=101, frames=200)
+    assert (clip.pitch.length, clip.pitch.width) == (101.0, 72.0)
+    img, truth = clip.render(150), clip.camera(150)
+    est = register_image(img, pixel_aspect=float(clip.pixel_aspect))
+    made_at = est.info["pitch"]
+    assert made_at.width == 72.0 and made_at.scan is not None and made_at.scan.size[1] == 72.0, made_at.describe()
+    at_default = register_image(img, pixel_aspect=float(clip.pixel_aspect), pitch=PitchModel())
+    # (18 px at 105 x 68; 9 px at 105 x 72, the circle view's focal length and depth the rest)
+    assert _still_error_1280(clip, truth, est) < _still_error_1280(clip, truth, at_default) - 5.0
 
 
 def test_a_caption_s_edge_is_no_touchline_for_a_still_s_size():

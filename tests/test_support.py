@@ -231,6 +231,52 @@ def test_paint_dispute_counts_markings_out_of_one_view():
     assert on_circle.disputed == 0 and on_circle.in_view == circle.sum() > 100, on_circle
 
 
+def test_paint_dispute_counts_a_marking_drawn_on_bare_grass():
+    # a 105 x 72 m pitch painted as a main camera sees it, the near touchline
+    # just below the picture; the same camera given a 105 x 68 pitch draws
+    # its near touchline across the grass at the bottom, where there is none,
+    # and the 72 m pitch's is outside the picture: those points count against
+    # the 68 m pitch (second_missing), not for either on paint
+    from arstream.pitch_size import corresponding_samples
+    from arstream.solve import ModelSamples
+    from arstream.support import MISSING_SHARE, paint_dispute
+    from cameras import looking_at
+
+    size = (1280, 720)
+    cam = looking_at((0.0, -70.0, 25.0), (0.0, -4.0, 0.0), 1400.0, size)
+    true, wrong = PitchModel(105.0, 72.0), PitchModel(105.0, 68.0)
+    frame = _painted(cam, size, pitch=true)
+    mask = bright_mask(frame[..., 1])
+    a, b = (np.column_stack([p, np.zeros(len(p))]) for p in corresponding_samples(true, wrong))
+    ids = ModelSamples.from_pitch(true, 0.25).marking
+    near = ids == ModelSamples.from_pitch(true, 0.25).names.index("touchline_near")
+    pb = cam.project(b[near])
+    drawn = (pb[:, 0] >= 0) & (pb[:, 0] < 1279.5) & (pb[:, 1] >= 0) & (pb[:, 1] < 719.5)
+    assert drawn.sum() > 100 and not ((pa := cam.project(a[near]))[:, 1] < 719.5).any()  # (in view at 68 m only)
+    ground = np.ones(size[::-1], bool)
+    d = paint_dispute(cam, a, cam, b, mask, ground=ground, markings=ids)
+    assert d.first_missing == 0 and drawn.sum() - 6 <= d.second_missing <= drawn.sum(), d  # (but where it crosses the halfway line's paint)
+    assert (d.for_first, d.for_second) == (d.first + d.second_missing, d.second)
+    plain = paint_dispute(cam, a, cam, b, mask)
+    assert plain.first_missing == plain.second_missing == 0 and (plain.first, plain.second, plain.disputed, plain.in_view) == (d.first, d.second, d.disputed, d.in_view)
+    assert paint_dispute(cam, b, cam, a, mask, ground=ground, markings=ids) == d.swapped()
+    # not bare grass (a caption over the bottom of the picture): no evidence
+    covered = ground.copy()
+    covered[int(pb[drawn, 1].min()) - 3 :] = False
+    assert paint_dispute(cam, a, cam, b, mask, ground=covered, markings=ids).second_missing == 0
+    # a marking with paint along a stretch of it is faint, not missing
+    faint = mask.copy()
+    run = np.flatnonzero(drawn)[: int(np.ceil(2 * MISSING_SHARE * drawn.sum()))]
+    for x, y in np.round(pb[run]).astype(int):
+        faint[max(y - 1, 0) : y + 2, max(x - 1, 0) : x + 2] = True
+    assert paint_dispute(cam, a, cam, b, faint, ground=ground, markings=ids).second_missing == 0
+    # in view of both only: nothing is in view of one camera alone
+    both = paint_dispute(cam, a, cam, b, mask, in_both=True, ground=ground, markings=ids)
+    assert both.first_missing == both.second_missing == 0
+    with pytest.raises(ValueError, match="one marking per point"):
+        paint_dispute(cam, a, cam, b, mask, ground=ground, markings=ids[:-1])
+
+
 def test_paint_dispute_in_view_of_both_leaves_out_samples_slid_into_one_view():
     # a penalty view of a 105 x 68 m pitch; the camera a 100 x 68 m pitch
     # would be given lays its penalty area on the same paint (the camera
