@@ -748,6 +748,7 @@ def size_dispute(cameras, pitches, mask: np.ndarray, *, in_both: bool = False, g
     -------
     callable ``(j, k) -> PaintDispute``
     """
+
     def dispute(j: int, k: int):
         pj, pk = corresponding_points(pitches[j], pitches[k])
         ids = None if ground is None else ModelSamples.from_pitch(pitches[j], SPACING).marking
