@@ -466,9 +466,9 @@ def test_a_premier_league_still_keeps_105_x_68_where_its_camera_fits_the_paint_c
     calls = []
     real = ini.size_from_view
 
-    def recorded(camera, support, view, size, pitch, min_support=0.7):
+    def recorded(camera, support, view, size, pitch, min_support=0.7, **kw):
         calls.append((camera, view, size, pitch))
-        return real(camera, support, view, size, pitch, min_support)
+        return real(camera, support, view, size, pitch, min_support, **kw)
 
     monkeypatch.setattr(ini, "size_from_view", recorded)
     img = cv2.imread(str(SHARED / "sequence-epl" / "frame_00.jpg"))
