@@ -293,17 +293,19 @@ def graphics_mask(detections, size) -> np.ndarray | None:
     return cv2.resize(cv2.dilate(kept, np.ones((3, 3), np.uint8)), (int(size[0]), int(size[1])), interpolation=cv2.INTER_NEAREST)
 
 
-def bare_grass(detections, size) -> np.ndarray | None:
+def bare_grass(detections, size, graphics: np.ndarray | None = None) -> np.ndarray | None:
     """(H, W) bool at ``size`` (width, height): the detector's grass mask less
-    its screen graphics (:func:`graphics_mask`), where a painted marking
-    would show; None without a grass mask. A still's sizes are judged on it
+    its screen graphics (``graphics``, the caller's :func:`graphics_mask` at
+    ``size``, else made here), where a painted marking would show; None
+    without a grass mask. A still's sizes are judged on it
     (:func:`arstream.support.paint_dispute`'s ``ground``)."""
     grass = getattr(detections, "grass_mask", None)
     if grass is None:
         return None
     W, H = int(size[0]), int(size[1])
     ground = (grass if grass.shape[:2] == (H, W) else cv2.resize(grass, (W, H), interpolation=cv2.INTER_NEAREST)) > 0
-    graphics = graphics_mask(detections, size)
+    if graphics is None:
+        graphics = graphics_mask(detections, size)
     if graphics is not None:
         ground &= graphics == 0
     return ground
@@ -1136,7 +1138,7 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     if graphics is not None:
         luma = luma & (graphics == 0)
     view = paint_view(image, detections)
-    ground = bare_grass(detections, size)
+    ground = bare_grass(detections, size, graphics)
     camera, made_at, sup = size_from_view(est.camera, est.info.get("support"), view, size, pitch, min_support, ground=ground)
     own = replace(est, camera=camera, info={**est.info, "support": sup, "pitch": made_at})
     fits = _line_support(own, luma, made_at.model(pitch.line_width))
@@ -1145,7 +1147,7 @@ def _with_size(est: CameraEstimate, detections, size, image: np.ndarray, pitch: 
     misses = explain_circles and circle_verdict(camera, detections.ellipses, size, made_at.model(pitch.line_width)) is not None
     if (fits is None or fits >= SCAN_BELOW) and not misses:
         return own
-    got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support, workers=workers)
+    got, made_at = size_from_scan(detections, size, image, own, view, luma, pitch, pp, estimate_k1=estimate_k1, min_support=min_support, workers=workers, ground=ground)
     return replace(got, info={**got.info, "pitch": made_at})
 
 
@@ -1163,7 +1165,7 @@ def _register_at(job) -> CameraEstimate:
     return register_frame(detections, size, principal_point=pp, pitch=pitch, estimate_k1=estimate_k1, image=image, min_support=min_support)
 
 
-def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7, workers: int = 1):
+def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, view: PaintView, luma: np.ndarray, pitch: PitchModel, principal_point, *, estimate_k1: bool = True, min_support: float = 0.7, workers: int = 1, ground: np.ndarray | None = None):
     """A still's pitch size and its camera when its camera at ``pitch`` fits
     the frame's markings poorly (line support below
     :data:`arstream.pitch_size.SCAN_BELOW`; :func:`register_frame` with
@@ -1194,6 +1196,8 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     view : PaintView of the frame
     luma : (H, W) bool, :func:`arstream.support.bright_mask` of the frame's luma
     pitch : PitchModel ``est`` was made at (the grid's centre where on it)
+    ground : (H, W) bool, the frame's bare grass (:func:`bare_grass`; made
+        here where None): the sizes' cameras are compared on it too
     principal_point : (2,) px
     workers : most processes the sizes are registered on, one size each
         (:func:`arstream.workers.map_in_processes`; default 1: here, one
@@ -1213,10 +1217,11 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     sizes = still_scan_sizes(pitch)
     jobs = [(detections, size, principal_point, PitchModel(L, W, pitch.line_width), estimate_k1, image, min_support) for L, W in sizes[1:]]
     found = map_in_processes(_register_at, jobs, workers=workers, preload=("arstream.initialise",))
-    est = _default_from_scan(est, found, detections, size, view, pitch, estimate_k1, min_support)
+    if ground is None:
+        ground = bare_grass(detections, size)
+    est = _default_from_scan(est, found, detections, size, view, pitch, estimate_k1, min_support, ground)
     ests = [est, *found]
     models = [est.info["pitch"].model(pitch.line_width)] + [PitchModel(*sz, pitch.line_width) for sz in sizes[1:]]
-    ground = bare_grass(detections, size)
     scan = choose_still_size(sizes, [_line_support(e, luma, m) for e, m in zip(ests, models)], size_dispute([e.camera for e in ests], models, luma, ground=ground))
     if scan.chosen == 0:
         return est, replace(est.info["pitch"], scan=scan)
@@ -1227,7 +1232,7 @@ def size_from_scan(detections, size, image: np.ndarray, est: CameraEstimate, vie
     return replace(best, camera=camera, info={**best.info, "support": sup}), replace(got, scan=scan)
 
 
-def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detections, size, view: PaintView, pitch: PitchModel, estimate_k1: bool, min_support: float) -> CameraEstimate:
+def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detections, size, view: PaintView, pitch: PitchModel, estimate_k1: bool, min_support: float, ground: np.ndarray | None = None) -> CameraEstimate:
     """:func:`size_from_scan`'s default entry (``est``, made at ``pitch``)
     made again from the scan's cameras at the other sizes (``found``), where
     that gives a camera the paint backs better.
@@ -1246,6 +1251,8 @@ def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detecti
     (:func:`paint_verdict`) and it scores more by :data:`PAINT_SCORE_MARGIN`
     (:func:`paint_score`, the rule between a still's cameras). The size
     estimated from that view (:func:`size_from_view`) goes with it.
+
+    ``ground``: the frame's bare grass, for :func:`size_from_view`.
 
     Returns ``est`` or the estimate made again (``info``: its support and
     size).
@@ -1266,7 +1273,7 @@ def _default_from_scan(est: CameraEstimate, found: list[CameraEstimate], detecti
     old = est.info.get("support")
     if paint_score(rb.camera, sb, view, size, model) <= paint_score(est.camera, old or 0.0, view, size, model) + PAINT_SCORE_MARGIN:
         return est
-    camera, got, sup = size_from_view(rb.camera, sb, view, size, pitch, min_support, ground=bare_grass(detections, size))
+    camera, got, sup = size_from_view(rb.camera, sb, view, size, pitch, min_support, ground=ground)
     return CameraEstimate(est.frame, est.pts, "ok", camera, rb.confidence, {**est.info, "rms": rb.rms, "n_visible": rb.n_visible, "support": sup, "pitch": got})
 
 
